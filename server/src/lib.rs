@@ -1,0 +1,1 @@
+//! jink's service: HTTP API, wire formats, geodesy, storage and CLI.
