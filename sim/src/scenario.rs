@@ -1,0 +1,336 @@
+//! Seeded scenarios within the SUAS rules: a fly-zone polygon, mission waypoints, up to 10
+//! cylinders (radius 30-300 ft, top 30-750 ft MSL) and up to 10 moving spheres (radius
+//! 30-300 ft, speed 0-40 kt) with a chosen behaviour family; or moving spheres generated for
+//! a real mission.
+//!
+//! Cylinders are placed on or near mission legs (as judges did, to force avoidance) but never
+//! over a waypoint; spheres fly around the mission's altitudes so that they matter.
+//!
+//! # Units
+//! ENU metres, metres MSL, seconds, m/s. Ground at 0 m MSL.
+
+use rand::{Rng, RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::behaviour::{Behaviour, BehaviourKind, Trajectory, TurningStart, trajectory};
+use crate::geometry::{P2, dist, point_in_polygon, xy};
+use crate::mission::{Cylinder, Mission};
+use crate::spline::SplineTour;
+
+/// Feet to metres.
+pub const FT: f64 = 0.3048;
+/// Knots to m/s.
+pub const KT: f64 = 0.514444;
+/// Rules: obstacle radius range, metres (30-300 ft).
+pub const RADIUS_RANGE_M: (f64, f64) = (30.0 * FT, 300.0 * FT);
+/// Rules: cylinder top range, metres MSL (30-750 ft).
+pub const CYL_TOP_RANGE_M: (f64, f64) = (30.0 * FT, 750.0 * FT);
+/// Rules: sphere speed range, m/s (0-40 kt).
+pub const SPEED_RANGE_MPS: (f64, f64) = (0.0, 40.0 * KT);
+/// Step of the ground-truth trajectories, seconds.
+pub const TRUTH_DT_S: f64 = 0.1;
+
+/// Which behaviours the moving spheres of a scenario use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Family {
+    /// Each sphere draws one of the five behaviours.
+    Mixed,
+    /// All spheres fly straight with rare turns.
+    Straight,
+    /// All spheres turn randomly.
+    Random,
+    /// All spheres turn with a bias.
+    Biased,
+    /// All spheres turn in a pattern (memory).
+    Patterned,
+    /// All spheres fly the judges' spline tours.
+    Spline,
+    /// Cylinders only, no moving spheres.
+    Static,
+}
+
+impl Family {
+    /// All families.
+    pub const ALL: [Family; 7] =
+        [Self::Mixed, Self::Straight, Self::Random, Self::Biased, Self::Patterned, Self::Spline, Self::Static];
+
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Mixed => "mixed",
+            Self::Straight => "straight",
+            Self::Random => "random",
+            Self::Biased => "biased",
+            Self::Patterned => "patterned",
+            Self::Spline => "spline",
+            Self::Static => "static",
+        }
+    }
+
+    /// Parses a lower-case name.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|f| f.name() == s)
+    }
+}
+
+/// Counts and sizes of generated scenarios. Defaults: 5-7 waypoints, 2-6 cylinders,
+/// 3-6 spheres, fly zone of radius 650-950 m, aircraft speed for the time limit 20 m/s.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScenarioParams {
+    /// Inclusive range of mission waypoints.
+    pub waypoints: (usize, usize),
+    /// Inclusive range of cylinders (rules: at most 10).
+    pub cylinders: (usize, usize),
+    /// Inclusive range of moving spheres (rules: at most 10).
+    pub spheres: (usize, usize),
+    /// Range of the fly zone's radius, metres.
+    pub zone_radius_m: (f64, f64),
+    /// Aircraft speed used to size the run's time limit, m/s.
+    pub aircraft_speed_mps: f64,
+    /// Fraction of cylinders placed on a mission leg.
+    pub cylinders_on_legs: f64,
+}
+
+impl Default for ScenarioParams {
+    fn default() -> Self {
+        Self {
+            waypoints: (5, 7),
+            cylinders: (2, 6),
+            spheres: (3, 6),
+            zone_radius_m: (650.0, 950.0),
+            aircraft_speed_mps: 20.0,
+            cylinders_on_legs: 0.6,
+        }
+    }
+}
+
+/// One moving sphere with its ground truth.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MovingSphere {
+    /// Radius, metres.
+    pub radius_m: f64,
+    /// (Average) speed, m/s.
+    pub speed_mps: f64,
+    /// Behaviour and parameters.
+    pub behaviour: Behaviour,
+    /// Ground-truth positions.
+    pub track: Trajectory,
+}
+
+/// A complete scenario: mission plus moving spheres, reproducible from `(family, seed)`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Scenario {
+    /// Family it was drawn from.
+    pub family: Family,
+    /// Seed it was drawn with.
+    pub seed: u64,
+    /// The mission.
+    pub mission: Mission,
+    /// Moving spheres.
+    pub spheres: Vec<MovingSphere>,
+    /// Time limit of a run (and span of the truth), seconds.
+    pub duration_s: f64,
+}
+
+/// Generates the scenario `(family, seed)`.
+pub fn generate(family: Family, seed: u64, params: &ScenarioParams) -> Scenario {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5CE7_A210);
+    let mission = random_mission(params, &mut rng);
+    let n = if family == Family::Static { 0 } else { rng.random_range(params.spheres.0..=params.spheres.1) };
+    with_moving_spheres_rng(mission, family, seed, n, params.aircraft_speed_mps, &mut rng)
+}
+
+/// Adds `n_spheres` moving spheres of `family` to a given (e.g. real) mission.
+pub fn with_moving_spheres(mission: Mission, family: Family, seed: u64, n_spheres: usize, aircraft_speed_mps: f64) -> Scenario {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0B57_AC1E);
+    with_moving_spheres_rng(mission, family, seed, n_spheres.min(10), aircraft_speed_mps, &mut rng)
+}
+
+fn with_moving_spheres_rng(
+    mission: Mission,
+    family: Family,
+    seed: u64,
+    n_spheres: usize,
+    aircraft_speed_mps: f64,
+    rng: &mut ChaCha8Rng,
+) -> Scenario {
+    let duration_s = (3.0 * mission.straight_length_m() / aircraft_speed_mps + 60.0).ceil();
+    let spheres = if family == Family::Static {
+        vec![]
+    } else {
+        (0..n_spheres).map(|_| random_sphere(&mission, family, duration_s, rng)).collect()
+    };
+    Scenario { family, seed, mission, spheres, duration_s }
+}
+
+fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> Mission {
+    // star-shaped zone: 10 vertices at jittered angles and radii
+    let r0 = rng.random_range(params.zone_radius_m.0..params.zone_radius_m.1);
+    let nv = 10;
+    let fly_zone_m: Vec<P2> = (0..nv)
+        .map(|i| {
+            let a = (i as f64 + rng.random_range(-0.3..0.3)) * std::f64::consts::TAU / nv as f64;
+            let r = r0 * rng.random_range(0.75..1.1);
+            [r * a.cos(), r * a.sin()]
+        })
+        .collect();
+    let inner = |p: P2, zone: &[P2]| {
+        // inside the zone with a 60 m margin from every edge
+        point_in_polygon(p, zone) && crate::geometry::distance_to_polygon_boundary(p, zone) > 60.0
+    };
+    let zone = fly_zone_m.clone();
+    let sample_inside = |rng: &mut R| loop {
+        let p = [rng.random_range(-r0..r0), rng.random_range(-r0..r0)];
+        if inner(p, &zone) {
+            return p;
+        }
+    };
+    let alt = |rng: &mut R| (rng.random_range(200.0..500.0) * FT / 10.0).round() * 10.0;
+    let start = sample_inside(rng);
+    let start_m = [start[0], start[1], 100.0];
+    let nw = rng.random_range(params.waypoints.0..=params.waypoints.1);
+    let mut waypoints_m: Vec<[f64; 3]> = Vec::with_capacity(nw);
+    let mut prev = start;
+    while waypoints_m.len() < nw {
+        let p = sample_inside(rng);
+        if dist(p, prev) > 300.0 && dist(p, prev) < 1200.0 {
+            waypoints_m.push([p[0], p[1], alt(rng)]);
+            prev = p;
+        }
+    }
+    let mut mission = Mission {
+        fly_zone_m,
+        alt_min_m: 100.0 * FT,
+        alt_max_m: 750.0 * FT,
+        start_m,
+        waypoints_m,
+        cylinders: vec![],
+    };
+    let nc = rng.random_range(params.cylinders.0..=params.cylinders.1).min(10);
+    let mut tries = 0;
+    while mission.cylinders.len() < nc && tries < 1000 {
+        tries += 1;
+        let radius_m = rng.random_range(RADIUS_RANGE_M.0..RADIUS_RANGE_M.1);
+        let top_m = rng.random_range(CYL_TOP_RANGE_M.0..CYL_TOP_RANGE_M.1);
+        let center_m = if rng.random::<f64>() < params.cylinders_on_legs {
+            let k = rng.random_range(0..mission.waypoints_m.len());
+            let a = if k == 0 { xy(mission.start_m) } else { xy(mission.waypoints_m[k - 1]) };
+            let b = xy(mission.waypoints_m[k]);
+            let f = rng.random_range(0.25..0.75);
+            let d = crate::geometry::unit(crate::geometry::sub(b, a));
+            let off = rng.random_range(-0.6..0.6) * radius_m;
+            [a[0] + (b[0] - a[0]) * f - d[1] * off, a[1] + (b[1] - a[1]) * f + d[0] * off]
+        } else {
+            sample_inside(rng)
+        };
+        let clear_of_points = std::iter::once(xy(mission.start_m))
+            .chain(mission.waypoints_m.iter().map(|w| xy(*w)))
+            .all(|w| dist(w, center_m) > radius_m + 40.0);
+        let clear_of_others = mission.cylinders.iter().all(|c| dist(c.center_m, center_m) > c.radius_m + radius_m + 30.0);
+        if clear_of_points && clear_of_others && point_in_polygon(center_m, &mission.fly_zone_m) {
+            mission.cylinders.push(Cylinder { center_m, radius_m, top_m });
+        }
+    }
+    mission
+}
+
+fn random_sphere<R: Rng + ?Sized>(mission: &Mission, family: Family, duration_s: f64, rng: &mut R) -> MovingSphere {
+    let kind = match family {
+        Family::Mixed | Family::Static => BehaviourKind::ALL[rng.random_range(0..5)],
+        Family::Straight => BehaviourKind::Straight,
+        Family::Random => BehaviourKind::Random,
+        Family::Biased => BehaviourKind::Biased,
+        Family::Patterned => BehaviourKind::Patterned,
+        Family::Spline => BehaviourKind::Spline,
+    };
+    let radius_m = rng.random_range(RADIUS_RANGE_M.0..RADIUS_RANGE_M.1);
+    // speeds mostly in the upper half of the rules' range: slow obstacles are trivial
+    let speed_mps = rng.random_range(0.25 * SPEED_RANGE_MPS.1..SPEED_RANGE_MPS.1);
+    let (lo, hi) = mission.bounds_m();
+    let center = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+    let half = [(hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0];
+    let start_xy = mission.start_m;
+    let pick_xy = |rng: &mut R| loop {
+        let p = [center[0] + rng.random_range(-half[0]..half[0]), center[1] + rng.random_range(-half[1]..half[1])];
+        if dist(p, xy(start_xy)) > 250.0 + radius_m {
+            return p;
+        }
+    };
+    let mission_alt = |rng: &mut R| {
+        let w = mission.waypoints_m[rng.random_range(0..mission.waypoints_m.len())];
+        w[2] + rng.random_range(-0.5..0.5) * radius_m
+    };
+    let behaviour = match kind {
+        BehaviourKind::Straight => Behaviour::Straight { turn_prob: 0.02, turn_rate_rad_s: rng.random_range(0.1..0.3) },
+        BehaviourKind::Random => Behaviour::Random { max_turn_rate_rad_s: rng.random_range(0.15..0.4) },
+        BehaviourKind::Biased => {
+            let side = if rng.random::<bool>() { 1.0 } else { -1.0 };
+            Behaviour::Biased {
+                mean_rad_s: side * rng.random_range(0.05..0.15),
+                sigma_rad_s: rng.random_range(0.03..0.08),
+                max_turn_rate_rad_s: 0.35,
+            }
+        }
+        BehaviourKind::Patterned => {
+            Behaviour::Patterned { turn_rate_rad_s: rng.random_range(0.15..0.3), follow_prob: rng.random_range(0.7..0.9) }
+        }
+        BehaviourKind::Spline => {
+            let n = rng.random_range(2..=5);
+            let mut wps: Vec<[f64; 3]> = Vec::with_capacity(n);
+            while wps.len() < n {
+                let p = pick_xy(rng);
+                if wps.last().is_none_or(|q| dist(xy(*q), p) > 150.0) {
+                    wps.push([p[0], p[1], mission_alt(rng)]);
+                }
+            }
+            Behaviour::Spline(SplineTour::new(wps, speed_mps.max(1.0)).expect("distinct waypoints"))
+        }
+    };
+    let p = pick_xy(rng);
+    let start = TurningStart {
+        p_m: [p[0], p[1], mission_alt(rng)],
+        heading_rad: rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+        speed_mps,
+        contain_center_m: center,
+        contain_radius_m: half[0].max(half[1]) * 1.1,
+    };
+    let track = trajectory(&behaviour, &start, duration_s, TRUTH_DT_S, rng);
+    MovingSphere { radius_m, speed_mps, behaviour, track }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn generated_scenarios_respect_the_rules() {
+        for seed in 0..40 {
+            let s = generate(Family::Mixed, seed, &ScenarioParams::default());
+            assert!(s.mission.cylinders.len() <= 10 && s.spheres.len() <= 10);
+            for c in &s.mission.cylinders {
+                assert!(c.radius_m >= RADIUS_RANGE_M.0 && c.radius_m <= RADIUS_RANGE_M.1);
+                assert!(c.top_m >= CYL_TOP_RANGE_M.0 && c.top_m <= CYL_TOP_RANGE_M.1);
+                for w in &s.mission.waypoints_m {
+                    assert!(dist(xy(*w), c.center_m) > c.radius_m, "waypoint inside a cylinder");
+                }
+            }
+            for sp in &s.spheres {
+                assert!(sp.radius_m >= RADIUS_RANGE_M.0 && sp.radius_m <= RADIUS_RANGE_M.1);
+                assert!(sp.speed_mps <= SPEED_RANGE_MPS.1 + 1e-9);
+                assert!(sp.track.duration_s() >= s.duration_s - 1e-9);
+            }
+            for w in &s.mission.waypoints_m {
+                assert!(point_in_polygon(xy(*w), &s.mission.fly_zone_m));
+            }
+        }
+    }
+
+    #[test]
+    fn the_same_seed_gives_the_same_scenario() {
+        let p = ScenarioParams::default();
+        assert_eq!(generate(Family::Mixed, 7, &p), generate(Family::Mixed, 7, &p));
+        assert_ne!(generate(Family::Mixed, 7, &p), generate(Family::Mixed, 8, &p));
+    }
+}
