@@ -5,4 +5,21 @@
 
 #![warn(missing_docs)]
 
+pub mod bisection;
+pub mod cost;
+pub mod export;
+pub mod geometry;
+pub mod insertion;
+pub mod ladder;
+pub mod mission;
+pub mod plan;
+pub mod prepass;
 pub mod reactive;
+pub mod simplify;
+pub mod stack;
+pub mod turn;
+
+pub use insertion::{Circle, InsertOutcome, insert_waypoint};
+pub use mission::{Aircraft, Cylinder, FlyZone, Mission, Waypoint};
+pub use plan::{AircraftState, Plan, PlanOutcome, PlanParams, PlanRequest, Strategy, plan};
+pub use stack::{ItemKind, StackDiff, StackItem, diff};

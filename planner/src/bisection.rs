@@ -1,0 +1,517 @@
+//! Monte Carlo recursive bisection between two immovable points (seed 002, "Pathfinding
+//! algorithm"; DESIGN.md "Planner", steps 1-4).
+//!
+//! For a leg `A -> B` flown from time `t_A`:
+//! 1. five turning choices `C_k = M + k * delta * n`, `k = -2..=2`, on the perpendicular
+//!    bisector of `AB` (`M` the midpoint, `n` the left normal). `delta` is 20% of the leg,
+//!    widened so that the outer choices clear the cylinders blocking the leg and the
+//!    dynamic risk seen across the bisector at the middle time. Choices outside the fly
+//!    zone are discarded.
+//! 2. For each choice, `S` sampled paths `A -> C -> B` of equidistant points (`n` per half),
+//!    each interior point pushed along the half's normal by a normal deviate
+//!    `sigma * z`, `z ~ N(0, 1)` clamped to `[-2, 2]`, tapered by `sin(pi i / n)` so the
+//!    ends stay put. `sigma = min(delta / 2, ds^2 / (8 R))`: with spacing `ds` and turn
+//!    radius `R`, the middle of three points then deviates from its neighbours' chord by
+//!    at most `4 sigma = ds^2 / (2 R)`, the sagitta of a radius-`R` arc over `2 ds`, so no
+//!    sample bends tighter than the aircraft can.
+//! 3. A sample's score is `sum risk(p_i, t_i) * ds_i` (exposure; `t_i` the arrival time at
+//!    constant speed, zero past the horizon) plus hard penalties (a segment in a cylinder's
+//!    buffer or out of the fly zone; a turn at `C` too sharp for `R`) plus a small length
+//!    weight. A choice's score is the mean over its samples (robustness).
+//! 4. The best choice is kept; `A -> C` and `C -> B` are searched the same way, down to
+//!    the depth limit or the resolution; at the bottom the best sample of the winning
+//!    choice becomes the path.
+//!
+//! Budget: a (sub-)leg without threat (`segment_risk_bound` below `threat_epsilon` and no
+//! blocking cylinder) is returned straight at once; the sample count grows with the leg's
+//! variability (a hint in `[0, 1]`, or the segment risk bound when absent) from `samples`
+//! to `max_samples`; a deadline stops the search (anytime: what has been decided is kept,
+//! the rest stays straight) and is checked before each choice is sampled.
+//!
+//! Determinism: all randomness comes from the caller's generator, consumed in a fixed
+//! order. Buffers live in a reusable [`Workspace`]; the hot loop does not allocate.
+
+use std::time::Instant;
+
+use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use crate::cost::LegEnv;
+use crate::geometry::{
+    Point, add, dist, dist_point_segment, lerp, norm, perp, scale, sub, turn_angle_rad, unit,
+};
+use crate::mission::Cylinder;
+use crate::turn::fillet_tangent_m;
+
+/// Number of turning choices per bisection (seed 002: five).
+pub const CHOICES: usize = 5;
+
+/// Bisection parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BisectionParams {
+    /// Sampled paths per choice for a calm leg. Default 12.
+    pub samples: usize,
+    /// Sampled paths per choice for the most variable leg. Default 32.
+    pub max_samples: usize,
+    /// Maximum recursion depth (1 = one bisection). Default 3.
+    pub max_depth: u32,
+    /// Stop bisecting when a half would be shorter than this, metres. Default 60.
+    pub resolution_m: f64,
+    /// Points per half of a sampled path. Default 8.
+    pub points_per_half: usize,
+    /// Score per metre of path length (in metres of exposure). Default 0.01.
+    pub length_weight: f64,
+    /// Score of one hard violation (cylinder buffer, fly zone). Default 10 000.
+    pub hard_penalty: f64,
+    /// Score of a turn at a choice too sharp for the turn radius. Default 200.
+    pub turn_penalty: f64,
+    /// Legs whose risk bound is below this are not searched. Default 1e-3.
+    pub threat_epsilon: f64,
+}
+
+impl Default for BisectionParams {
+    fn default() -> Self {
+        Self {
+            samples: 12,
+            max_samples: 32,
+            max_depth: 3,
+            resolution_m: 60.0,
+            points_per_half: 8,
+            length_weight: 0.01,
+            hard_penalty: 10_000.0,
+            turn_penalty: 200.0,
+            threat_epsilon: 1e-3,
+        }
+    }
+}
+
+impl BisectionParams {
+    /// Sets the base sample count.
+    pub fn samples(mut self, s: usize) -> Self {
+        self.samples = s.max(1);
+        self.max_samples = self.max_samples.max(self.samples);
+        self
+    }
+    /// Sets the depth limit.
+    pub fn max_depth(mut self, d: u32) -> Self {
+        self.max_depth = d.max(1);
+        self
+    }
+    /// Sets the resolution, metres.
+    pub fn resolution_m(mut self, r: f64) -> Self {
+        self.resolution_m = r;
+        self
+    }
+}
+
+/// Reusable buffers for [`bisect_leg`].
+#[derive(Debug, Default)]
+pub struct Workspace {
+    sample: Vec<Point>,
+    best: [Vec<Point>; CHOICES],
+    near: Vec<(Point, f64)>,
+}
+
+/// Result of searching one leg.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LegSearch {
+    /// Points strictly between `A` and `B`, in flight order (empty = straight).
+    pub points: Vec<Point>,
+    /// Whether any threat was found (false = returned straight at once).
+    pub searched: bool,
+    /// Whether the deadline cut the search short.
+    pub timed_out: bool,
+    /// Risk-field evaluations spent.
+    pub evaluations: u64,
+}
+
+struct Ctx<'a, 'e, R: Rng + ?Sized> {
+    env: &'a LegEnv<'e>,
+    params: &'a BisectionParams,
+    turn_radius_m: f64,
+    samples: usize,
+    deadline: Option<Instant>,
+    rng: &'a mut R,
+    ws: &'a mut Workspace,
+    out: LegSearch,
+}
+
+/// Searches the leg `a -> b` flown from `t_a_s` (see the module docs). `variability` in
+/// `[0, 1]` scales the sample budget; `None` derives it from the risk field.
+pub fn bisect_leg<R: Rng + ?Sized>(
+    env: &LegEnv<'_>,
+    a: Point,
+    b: Point,
+    t_a_s: f64,
+    turn_radius_m: f64,
+    params: &BisectionParams,
+    variability: Option<f64>,
+    deadline: Option<Instant>,
+    rng: &mut R,
+    ws: &mut Workspace,
+) -> LegSearch {
+    let bound = threat(env, a, b, t_a_s);
+    let blocked = blocking_cylinder(env, a, b).is_some();
+    if bound < params.threat_epsilon && !blocked {
+        return LegSearch::default();
+    }
+    let v = variability.unwrap_or(bound).clamp(0.0, 1.0);
+    let samples = params.samples
+        + ((params.max_samples.saturating_sub(params.samples)) as f64 * v).round() as usize;
+    let mut ctx = Ctx {
+        env,
+        params,
+        turn_radius_m,
+        samples: samples.max(1),
+        deadline,
+        rng,
+        ws,
+        out: LegSearch {
+            searched: true,
+            evaluations: 17,
+            ..LegSearch::default()
+        },
+    };
+    node(&mut ctx, a, b, t_a_s, 1);
+    ctx.out
+}
+
+/// Conservative dynamic risk bound of the straight segment within the horizon.
+fn threat(env: &LegEnv<'_>, a: Point, b: Point, t_a_s: f64) -> f64 {
+    if t_a_s > env.horizon_end_s {
+        return 0.0;
+    }
+    let l = dist(a, b);
+    let t_b = (t_a_s + l / env.speed_mps).min(env.horizon_end_s);
+    let f = ((t_b - t_a_s) * env.speed_mps / l.max(1e-9)).clamp(0.0, 1.0);
+    env.risk.segment_risk_bound(a, lerp(a, b, f), t_a_s, t_b)
+}
+
+fn blocking_cylinder<'c>(env: &'c LegEnv<'_>, a: Point, b: Point) -> Option<&'c Cylinder> {
+    env.cylinders.iter().find(|c| {
+        c.matters_at(env.alt_m)
+            && dist_point_segment(c.center_m, a, b)
+                < c.radius_m * (1.0 + env.buffer_fraction) - 1e-9
+    })
+}
+
+fn timed_out<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>) -> bool {
+    if ctx.deadline.is_some_and(|d| Instant::now() >= d) {
+        ctx.out.timed_out = true;
+        return true;
+    }
+    false
+}
+
+/// Searches `a -> b`, appending the interior points (excluding both ends) to `ctx.out`.
+fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64, depth: u32) {
+    let env = *ctx.env;
+    let params = *ctx.params;
+    let l = dist(a, b);
+    let Some(u) = unit(sub(b, a)) else { return };
+    if depth > 1 {
+        ctx.out.evaluations += 17;
+        if threat(&env, a, b, t_a) < params.threat_epsilon
+            && blocking_cylinder(&env, a, b).is_none()
+        {
+            return;
+        }
+    }
+    if timed_out(ctx) {
+        return;
+    }
+    let n = perp(u);
+    let m = lerp(a, b, 0.5);
+    let t_m = t_a + 0.5 * l / env.speed_mps;
+
+    // Choice spacing: 20% of the leg, widened for what is in the way.
+    let mut delta: f64 = 0.2 * l;
+    for c in env.cylinders.iter().filter(|c| c.matters_at(env.alt_m)) {
+        let rb = c.radius_m * (1.0 + 2.0 * env.buffer_fraction);
+        let d_line = dist_point_segment(c.center_m, a, b);
+        if d_line < rb {
+            let off = (sub(c.center_m, m)[0] * n[0] + sub(c.center_m, m)[1] * n[1]).abs();
+            delta = delta.max((rb + off) / 2.0);
+        }
+    }
+    if t_m <= env.horizon_end_s {
+        let peak = env.risk.risk(m, t_m);
+        if peak >= params.threat_epsilon {
+            let mut clear_at = l;
+            for j in 1..=10 {
+                let o = l * f64::from(j) / 10.0;
+                let rl = env.risk.risk(add(m, scale(n, o)), t_m);
+                let rr = env.risk.risk(add(m, scale(n, -o)), t_m);
+                ctx.out.evaluations += 2;
+                if rl.min(rr) <= 0.1 * peak {
+                    clear_at = o;
+                    break;
+                }
+            }
+            delta = delta.max(clear_at / 2.0);
+        }
+    }
+    delta = delta.min(l);
+
+    let half = 0.5 * l;
+    let np = params.points_per_half.max(2);
+    let ds = half / np as f64;
+    let sigma_cap = if ctx.turn_radius_m > 0.0 {
+        ds * ds / (8.0 * ctx.turn_radius_m)
+    } else {
+        f64::INFINITY
+    };
+    let sigma = (delta / 2.0).min(sigma_cap);
+
+    let mut scores = [f64::INFINITY; CHOICES];
+    let mut best_sample = [f64::INFINITY; CHOICES];
+    let mut any = false;
+    for k in 0..CHOICES {
+        let c = add(m, scale(n, (k as f64 - 2.0) * delta));
+        if !env.zones.contains(c) {
+            continue;
+        }
+        if timed_out(ctx) {
+            break;
+        }
+        let (ac, cb) = (dist(a, c), dist(c, b));
+        // Turn at C with straight halves: each half may spend half its length on it.
+        let turn_cost = if ctx.turn_radius_m > 0.0
+            && fillet_tangent_m(turn_angle_rad(a, c, b), ctx.turn_radius_m) > 0.5 * ac.min(cb)
+        {
+            params.turn_penalty
+        } else {
+            0.0
+        };
+        // Obstacles near this choice's corridor (deviation up to 2 sigma).
+        ctx.ws.near.clear();
+        for cyl in env.cylinders.iter().filter(|q| q.matters_at(env.alt_m)) {
+            let rb = cyl.radius_m * (1.0 + env.buffer_fraction);
+            let d =
+                dist_point_segment(cyl.center_m, a, c).min(dist_point_segment(cyl.center_m, c, b));
+            if d < rb + 2.0 * sigma + 1e-6 {
+                ctx.ws.near.push((cyl.center_m, rb));
+            }
+        }
+        let zone_safe = env.zones.is_unbounded()
+            || env.zones.polygons().iter().any(|p| {
+                p.contains_segment(a, c)
+                    && p.contains_segment(c, b)
+                    && segment_boundary_distance(p, a, c).min(segment_boundary_distance(p, c, b))
+                        > 2.0 * sigma + 1e-6
+            });
+        let mut sum = 0.0;
+        for _ in 0..ctx.samples {
+            sample_path(ctx, a, c, b, sigma, np);
+            let s = score_sample(ctx, t_a, zone_safe) + turn_cost;
+            sum += s;
+            if s < best_sample[k] {
+                best_sample[k] = s;
+                let Ctx { ws, .. } = ctx;
+                ws.best[k].clear();
+                ws.best[k].extend_from_slice(&ws.sample);
+            }
+        }
+        scores[k] = sum / ctx.samples as f64;
+        any = true;
+    }
+    if !any {
+        return;
+    }
+    let mut kbest = 2;
+    for k in 0..CHOICES {
+        // Ties go to the middle (straight) choice, then to the lower index.
+        if scores[k] < scores[kbest] - 1e-12 {
+            kbest = k;
+        }
+    }
+    if !scores[kbest].is_finite() {
+        return;
+    }
+    let c = add(m, scale(n, (kbest as f64 - 2.0) * delta));
+    let bottom = depth >= params.max_depth || half < params.resolution_m || ctx.out.timed_out;
+    if bottom {
+        let pts = &ctx.ws.best[kbest];
+        // Interior points: drop A (first) and B (last).
+        let interior = &pts[1..pts.len() - 1];
+        ctx.out.points.extend_from_slice(interior);
+        return;
+    }
+    let t_c = t_a + dist(a, c) / env.speed_mps;
+    node(ctx, a, c, t_a, depth + 1);
+    ctx.out.points.push(c);
+    node(ctx, c, b, t_c, depth + 1);
+}
+
+/// Fills `ws.sample` with `A, (np-1 points), C, (np-1 points), B`.
+fn sample_path<R: Rng + ?Sized>(
+    ctx: &mut Ctx<'_, '_, R>,
+    a: Point,
+    c: Point,
+    b: Point,
+    sigma: f64,
+    np: usize,
+) {
+    let Ctx { ws, rng, .. } = ctx;
+    ws.sample.clear();
+    ws.sample.push(a);
+    for (p, q) in [(a, c), (c, b)] {
+        let d = sub(q, p);
+        let len = norm(d);
+        let nn = if len > 1e-12 {
+            perp(scale(d, 1.0 / len))
+        } else {
+            [0.0, 0.0]
+        };
+        for i in 1..np {
+            let f = i as f64 / np as f64;
+            let z: f64 = StandardNormal.sample(&mut **rng);
+            let y = (std::f64::consts::PI * f).sin() * z.clamp(-2.0, 2.0) * sigma;
+            ws.sample.push(add(lerp(p, q, f), scale(nn, y)));
+        }
+        ws.sample.push(q);
+    }
+}
+
+fn score_sample<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, t_a: f64, zone_safe: bool) -> f64 {
+    let env = ctx.env;
+    let params = ctx.params;
+    let pts = &ctx.ws.sample;
+    let mut t = t_a;
+    let mut exposure = 0.0;
+    let mut length = 0.0;
+    let mut hard = 0usize;
+    let mut evals = 0u64;
+    for w in pts.windows(2) {
+        let (p, q) = (w[0], w[1]);
+        let l = dist(p, q);
+        length += l;
+        t += l / env.speed_mps;
+        if t <= env.horizon_end_s {
+            exposure += env.risk.risk(q, t) * l;
+            evals += 1;
+        }
+        for &(cc, rb) in &ctx.ws.near {
+            if dist_point_segment(cc, p, q) < rb {
+                hard += 1;
+            }
+        }
+        if !zone_safe && !env.zones.contains_segment(p, q) {
+            hard += 1;
+        }
+    }
+    ctx.out.evaluations += evals;
+    exposure + params.length_weight * length + params.hard_penalty * hard as f64
+}
+
+/// Distance from segment `a -> b` (not crossing the boundary) to the polygon boundary.
+fn segment_boundary_distance(p: &crate::geometry::Polygon, a: Point, b: Point) -> f64 {
+    let v = p.vertices();
+    let mut d = p.boundary_distance(a).min(p.boundary_distance(b));
+    for &q in v {
+        d = d.min(dist_point_segment(q, a, b));
+    }
+    d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mission::Zones;
+    use predictor::RiskField;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    /// A static disc of risk 1 (radius 40 m) at (500, 0).
+    struct Disc;
+    impl RiskField for Disc {
+        fn risk(&self, p: [f64; 2], _t: f64) -> f64 {
+            if dist(p, [500.0, 0.0]) < 40.0 {
+                1.0
+            } else {
+                0.0
+            }
+        }
+    }
+
+    fn env<'a>(risk: &'a dyn RiskField, zones: &'a Zones) -> LegEnv<'a> {
+        LegEnv {
+            risk,
+            zones,
+            cylinders: &[],
+            alt_m: 50.0,
+            buffer_fraction: 0.2,
+            speed_mps: 20.0,
+            horizon_end_s: 1e9,
+        }
+    }
+
+    #[test]
+    fn a_calm_leg_is_returned_straight_without_search() {
+        let zones = Zones::default();
+        let e = env(&predictor::field::NoRisk, &zones);
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let r = bisect_leg(
+            &e,
+            [0.0, 0.0],
+            [1000.0, 0.0],
+            0.0,
+            40.0,
+            &BisectionParams::default(),
+            None,
+            None,
+            &mut rng,
+            &mut Workspace::default(),
+        );
+        assert!(r.points.is_empty() && !r.searched);
+    }
+
+    #[test]
+    fn a_disc_on_the_leg_is_avoided() {
+        let zones = Zones::default();
+        let e = env(&Disc, &zones);
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let r = bisect_leg(
+            &e,
+            [0.0, 0.0],
+            [1000.0, 0.0],
+            0.0,
+            40.0,
+            &BisectionParams::default(),
+            None,
+            None,
+            &mut rng,
+            &mut Workspace::default(),
+        );
+        assert!(r.searched && !r.points.is_empty());
+        let mut pts = vec![[0.0, 0.0]];
+        pts.extend(&r.points);
+        pts.push([1000.0, 0.0]);
+        let risk = e.path_risk(&pts, 0.0, 2.0);
+        assert_eq!(risk.peak, 0.0, "{pts:?}");
+    }
+
+    #[test]
+    fn the_same_seed_gives_the_same_points() {
+        let zones = Zones::default();
+        let e = env(&Disc, &zones);
+        let run = |seed| {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            bisect_leg(
+                &e,
+                [0.0, 0.0],
+                [1000.0, 0.0],
+                0.0,
+                40.0,
+                &BisectionParams::default(),
+                None,
+                None,
+                &mut rng,
+                &mut Workspace::default(),
+            )
+            .points
+        };
+        assert_eq!(run(3), run(3));
+        assert_ne!(run(3), run(4));
+    }
+}

@@ -1,0 +1,528 @@
+//! Full replanning of the waypoint stack: static pre-pass, Monte Carlo bisection,
+//! simplification, turn check, risk report and stack diff (DESIGN.md "Planner", "The
+//! stack and its indices"; seeds 002 and 004).
+//!
+//! [`plan`] takes the stack the aircraft is flying and the index it flies toward. Items
+//! before that index are kept as they are (their indices never shift). From the aircraft's
+//! position, the remaining fixed items (mission and search waypoints; previously inserted
+//! avoid items are dropped and recomputed) are joined leg by leg:
+//! 1. seed 004 insertion around blocking cylinders ([`crate::prepass`]);
+//! 2. each resulting sub-leg whose straight line meets dynamic risk within the horizon (or
+//!    still a cylinder) is searched by [`crate::bisection`] and simplified;
+//! 3. legs are timed at constant speed from the telemetry time, so later legs see the risk
+//!    map at the time the aircraft will get there.
+//!
+//! The result is compared with the pre-pass-only stack and the unmodified stack on the same
+//! metric (hard violations, then peak risk, then exposure, then length) and the best is
+//! returned, so a plan's risk is never above the stack's it replaces.
+//!
+//! Every random draw comes from a ChaCha8 generator seeded per sub-leg from the plan seed,
+//! the leg's stack position and the sub-leg's index, so the same inputs and seed give the
+//! same plan bit for bit, however the caller schedules threads.
+
+use std::time::Instant;
+
+use predictor::RiskField;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use crate::bisection::{BisectionParams, Workspace, bisect_leg};
+use crate::cost::{LegEnv, PathRisk, better};
+use crate::geometry::{Point, dist};
+use crate::mission::{Aircraft, Mission, Zones, cylinder_containing};
+use crate::prepass::{PrepassParams, prepass_leg};
+use crate::simplify::simplify_path;
+use crate::stack::{ItemKind, StackDiff, StackItem, diff, mission_stack};
+use crate::turn::turn_violations;
+
+/// Where the aircraft is now (from the latest telemetry).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct AircraftState {
+    /// Position, ENU metres.
+    pub p_m: Point,
+    /// Altitude, metres MSL.
+    pub alt_m: f64,
+    /// Compass heading, radians clockwise from north.
+    pub heading_rad: f64,
+    /// Ground speed, m/s (0 or less: use `Aircraft::speed_mps`).
+    pub speed_mps: f64,
+    /// Mission time of the telemetry, seconds (the risk field's clock).
+    pub t_s: f64,
+}
+
+/// Which planner to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum Strategy {
+    /// Static pre-pass then Monte Carlo bisection against the risk field (default).
+    #[default]
+    Bisection,
+    /// Static pre-pass only (seed 004 insertion around cylinders; ignores the risk field
+    /// while planning, still reports risk).
+    Insertion,
+    /// Keep the stack; only evaluate it.
+    None,
+}
+
+/// Planning parameters with documented defaults.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanParams {
+    /// Strategy. Default [`Strategy::Bisection`].
+    pub strategy: Strategy,
+    /// Bisection parameters (samples, depth, resolution).
+    pub bisection: BisectionParams,
+    /// Pre-pass parameters (buffer fraction 0.2, rounds).
+    pub prepass: PrepassParams,
+    /// Dynamic risk is looked at up to this many seconds after the telemetry. Default 60.
+    pub horizon_s: f64,
+    /// Anytime deadline; `None` = run to completion.
+    pub deadline: Option<Instant>,
+    /// Peak risk at or below which a plan counts as safe. Default 0.05.
+    pub safe_risk: f64,
+    /// Obstacle variability hint in `[0, 1]` (e.g. from the predictor's stage);
+    /// `None` = derived per leg from the risk bound.
+    pub variability: Option<f64>,
+    /// Spacing of risk evaluations when scoring whole plans, metres. Default 10.
+    pub eval_step_m: f64,
+}
+
+impl Default for PlanParams {
+    fn default() -> Self {
+        Self {
+            strategy: Strategy::Bisection,
+            bisection: BisectionParams::default(),
+            prepass: PrepassParams::default(),
+            horizon_s: 60.0,
+            deadline: None,
+            safe_risk: 0.05,
+            variability: None,
+            eval_step_m: 10.0,
+        }
+    }
+}
+
+impl PlanParams {
+    /// Sets the strategy.
+    pub fn strategy(mut self, s: Strategy) -> Self {
+        self.strategy = s;
+        self
+    }
+    /// Sets the deadline.
+    pub fn deadline(mut self, d: Option<Instant>) -> Self {
+        self.deadline = d;
+        self
+    }
+    /// Sets the samples per choice.
+    pub fn samples(mut self, s: usize) -> Self {
+        self.bisection = self.bisection.samples(s);
+        self
+    }
+    /// Sets the recursion depth.
+    pub fn max_depth(mut self, d: u32) -> Self {
+        self.bisection = self.bisection.max_depth(d);
+        self
+    }
+    /// Sets the resolution, metres.
+    pub fn resolution_m(mut self, r: f64) -> Self {
+        self.bisection = self.bisection.resolution_m(r);
+        self
+    }
+    /// Sets the horizon, seconds.
+    pub fn horizon_s(mut self, h: f64) -> Self {
+        self.horizon_s = h;
+        self
+    }
+    /// Sets the cylinder buffer fraction (default 0.2).
+    pub fn buffer_fraction(mut self, f: f64) -> Self {
+        self.prepass.buffer_fraction = f;
+        self
+    }
+}
+
+/// Everything a plan depends on (with the risk field and the seed).
+#[derive(Debug, Clone, Copy)]
+pub struct PlanRequest<'a> {
+    /// The mission.
+    pub mission: &'a Mission,
+    /// Aircraft performance.
+    pub aircraft: Aircraft,
+    /// The stack the aircraft flies; empty = the mission's own waypoints.
+    pub stack: &'a [StackItem],
+    /// Index in `stack` the aircraft flies toward (MAVLink current sequence).
+    pub current_index: usize,
+    /// Latest telemetry.
+    pub state: AircraftState,
+    /// Parameters.
+    pub params: PlanParams,
+    /// Plan seed (stored with the plan; same seed, same plan).
+    pub seed: u64,
+}
+
+/// How planning went (OMPL-style status; the plan is returned in every case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(tag = "status", rename_all = "snake_case"))]
+#[non_exhaustive]
+pub enum PlanOutcome {
+    /// Every leg clear of every cylinder, inside the fly zone, peak risk <= `safe_risk`,
+    /// search completed.
+    Exact,
+    /// Clear and safe, but the deadline cut a search short: the best found so far.
+    Approximate,
+    /// The deadline passed before a threatened leg could be searched: the pre-pass result
+    /// (or the stack) is returned.
+    Timeout,
+    /// No clear and safe plan found: the least-risk plan found is returned.
+    NoSafePath,
+    /// The aircraft is inside a cylinder (at its altitude): plan returned as is.
+    StartInsideObstacle {
+        /// Index in `Mission::cylinders`.
+        cylinder: usize,
+    },
+    /// The aircraft is outside every fly zone.
+    StartOutsideFlyZone,
+    /// A fixed waypoint still to fly lies inside a cylinder: it cannot be reached clear.
+    WaypointInsideCylinder {
+        /// Stack index of the waypoint.
+        stack_index: usize,
+        /// Index in `Mission::cylinders`.
+        cylinder: usize,
+    },
+}
+
+/// A revised stack.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Plan {
+    /// How planning went.
+    pub outcome: PlanOutcome,
+    /// The whole revised stack (items before `current_index` unchanged).
+    pub items: Vec<StackItem>,
+    /// Index to fly toward now (same as the request's, clamped to the stack).
+    pub current_index: usize,
+    /// Tail rewrite from the request's stack to `items`.
+    pub diff: StackDiff,
+    /// Peak risk along the remaining route within the horizon (1 when it enters a cylinder
+    /// or leaves the fly zone).
+    pub risk: f64,
+    /// Risk exposure along the remaining route, metres at risk 1.
+    pub exposure_m: f64,
+    /// Peak risk of the unmodified stack, on the same metric.
+    pub base_risk: f64,
+    /// Length of the remaining route from the aircraft, metres.
+    pub length_m: f64,
+    /// Avoid items in the remaining route.
+    pub added: usize,
+    /// Stack indices of avoid items whose turns the aircraft cannot fly at its radius.
+    pub turn_violations: Vec<usize>,
+    /// Risk-field evaluations spent searching.
+    pub evaluations: u64,
+    /// The seed used.
+    pub seed: u64,
+}
+
+/// Bad input to [`plan`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PlanError {
+    /// The aircraft's speed is not positive and finite: send a real cruise speed.
+    #[error("aircraft speed must be positive, got {0}")]
+    BadSpeed(f64),
+    /// A position, altitude or time is NaN or infinite: fix the caller's data.
+    #[error("non-finite input: {0}")]
+    NonFinite(&'static str),
+}
+
+/// SplitMix64 finaliser: decorrelates derived seeds.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The seed of sub-leg `sub` of the leg ending at stack position `leg`.
+pub fn leg_seed(plan_seed: u64, leg: usize, sub: usize) -> u64 {
+    mix(mix(plan_seed ^ mix(leg as u64 + 1)) ^ (sub as u64).wrapping_mul(0xD6E8_FEB8_6659_FD93))
+}
+
+/// Plans a revised stack (see the module docs).
+///
+/// # Errors
+/// [`PlanError`] for bad input only; "no path" is a [`PlanOutcome`].
+pub fn plan(req: &PlanRequest<'_>, risk: &dyn RiskField) -> Result<Plan, PlanError> {
+    let speed = if req.state.speed_mps > 0.0 && req.state.speed_mps.is_finite() {
+        req.state.speed_mps
+    } else {
+        req.aircraft.speed_mps
+    };
+    if !(speed > 0.0 && speed.is_finite()) {
+        return Err(PlanError::BadSpeed(speed));
+    }
+    let s = &req.state;
+    if !(s.p_m[0].is_finite() && s.p_m[1].is_finite() && s.alt_m.is_finite() && s.t_s.is_finite()) {
+        return Err(PlanError::NonFinite("aircraft state"));
+    }
+    let owned;
+    let stack: &[StackItem] = if req.stack.is_empty() {
+        owned = mission_stack(req.mission);
+        &owned
+    } else {
+        req.stack
+    };
+    if stack
+        .iter()
+        .any(|i| !(i.p_m[0].is_finite() && i.p_m[1].is_finite() && i.alt_m.is_finite()))
+    {
+        return Err(PlanError::NonFinite("stack item"));
+    }
+    let ci = req.current_index.min(stack.len());
+    let p = &req.params;
+    let zones = Zones::new(&req.mission.fly_zones);
+    let cylinders = &req.mission.cylinders;
+    let horizon_end = s.t_s + p.horizon_s;
+    let env_at = |alt_m: f64| LegEnv {
+        risk,
+        zones: &zones,
+        cylinders,
+        alt_m,
+        buffer_fraction: p.prepass.buffer_fraction,
+        speed_mps: speed,
+        horizon_end_s: horizon_end,
+    };
+
+    let base_tail: Vec<StackItem> = stack[ci..].to_vec();
+    let base_risk = route_risk(&env_at, s, &base_tail, p.eval_step_m);
+
+    let mut evaluations = 0u64;
+    let mut searched_all = true;
+    let mut timed_out = false;
+    let mut prepass_tail = Vec::new();
+    let mut full_tail = Vec::new();
+    let fixed: Vec<(usize, StackItem)> = stack
+        .iter()
+        .enumerate()
+        .skip(ci)
+        .filter(|(_, it)| it.is_fixed())
+        .map(|(i, it)| (i, *it))
+        .collect();
+    if p.strategy != Strategy::None {
+        let mut ws = Workspace::default();
+        let mut prev = s.p_m;
+        let mut prev_alt = s.alt_m;
+        let mut t = s.t_s;
+        for &(idx, item) in &fixed {
+            let alt = prev_alt.min(item.alt_m);
+            let env = env_at(alt);
+            let pre = prepass_leg(prev, item.p_m, alt, cylinders, &zones, &p.prepass);
+            let mut pts = Vec::with_capacity(pre.inserted.len() + 2);
+            pts.push(prev);
+            pts.extend_from_slice(&pre.inserted);
+            pts.push(item.p_m);
+            prepass_tail.extend(
+                pre.inserted
+                    .iter()
+                    .map(|&q| StackItem::avoid(q, item.alt_m)),
+            );
+            prepass_tail.push(item);
+
+            let mut leg = pts.clone();
+            if p.strategy == Strategy::Bisection {
+                let mut out = vec![pts[0]];
+                let mut changed = false;
+                let mut tt = t;
+                for (sub, w) in pts.windows(2).enumerate() {
+                    let mut rng = ChaCha8Rng::seed_from_u64(leg_seed(req.seed, idx, sub));
+                    let r = bisect_leg(
+                        &env,
+                        w[0],
+                        w[1],
+                        tt,
+                        req.aircraft.turn_radius_m,
+                        &p.bisection,
+                        p.variability,
+                        p.deadline,
+                        &mut rng,
+                        &mut ws,
+                    );
+                    evaluations += r.evaluations;
+                    if r.timed_out {
+                        timed_out = true;
+                        if r.points.is_empty() {
+                            searched_all = false;
+                        }
+                    }
+                    if !r.points.is_empty() {
+                        changed = true;
+                        let mut seg = Vec::with_capacity(r.points.len() + 2);
+                        seg.push(w[0]);
+                        seg.extend_from_slice(&r.points);
+                        seg.push(w[1]);
+                        let simple = simplify_path(&env, &seg, tt, p.eval_step_m);
+                        out.extend_from_slice(&simple[1..simple.len() - 1]);
+                    }
+                    out.push(w[1]);
+                    tt += dist(w[0], w[1]) / speed;
+                }
+                if changed {
+                    leg = out;
+                }
+            }
+            for w in leg.windows(2) {
+                t += dist(w[0], w[1]) / speed;
+            }
+            full_tail.extend(
+                leg[1..leg.len() - 1]
+                    .iter()
+                    .map(|&q| StackItem::avoid(q, item.alt_m)),
+            );
+            full_tail.push(item);
+            prev = item.p_m;
+            prev_alt = item.alt_m;
+        }
+        remove_infeasible_turns(
+            &env_at,
+            s,
+            &mut full_tail,
+            req.aircraft.turn_radius_m,
+            p.eval_step_m,
+        );
+    }
+
+    // Keep the best of: the full plan, the pre-pass only, the unmodified stack.
+    let mut best_tail = base_tail.clone();
+    let mut best = base_risk;
+    for cand in [&prepass_tail, &full_tail] {
+        if cand.is_empty() && !base_tail.is_empty() {
+            continue;
+        }
+        let r = route_risk(&env_at, s, cand, p.eval_step_m);
+        if better(&r, &best) {
+            best = r;
+            best_tail = cand.clone();
+        }
+    }
+
+    let mut items = stack[..ci].to_vec();
+    items.extend_from_slice(&best_tail);
+    let route: Vec<Point> = std::iter::once(s.p_m)
+        .chain(best_tail.iter().map(|i| i.p_m))
+        .collect();
+    let turn_bad: Vec<usize> = turn_violations(&route, req.aircraft.turn_radius_m, None)
+        .into_iter()
+        .filter(|v| v.index >= 1 && best_tail[v.index - 1].kind == ItemKind::Avoid)
+        .map(|v| ci + v.index - 1)
+        .collect();
+
+    let outcome = if let Some(c) = cylinder_containing(cylinders, s.p_m, s.alt_m) {
+        PlanOutcome::StartInsideObstacle { cylinder: c }
+    } else if !zones.contains(s.p_m) {
+        PlanOutcome::StartOutsideFlyZone
+    } else if let Some((stack_index, cylinder)) = fixed
+        .iter()
+        .find_map(|&(i, it)| cylinder_containing(cylinders, it.p_m, it.alt_m).map(|c| (i, c)))
+    {
+        PlanOutcome::WaypointInsideCylinder {
+            stack_index,
+            cylinder,
+        }
+    } else if best.hard_violations > 0 || best.peak > p.safe_risk {
+        PlanOutcome::NoSafePath
+    } else if timed_out && !searched_all {
+        PlanOutcome::Timeout
+    } else if timed_out {
+        PlanOutcome::Approximate
+    } else {
+        PlanOutcome::Exact
+    };
+    let added = best_tail
+        .iter()
+        .filter(|i| i.kind == ItemKind::Avoid)
+        .count();
+    Ok(Plan {
+        outcome,
+        diff: diff(stack, &items),
+        items,
+        current_index: ci,
+        risk: best.peak,
+        exposure_m: best.exposure_m,
+        base_risk: base_risk.peak,
+        length_m: best.length_m,
+        added,
+        turn_violations: turn_bad,
+        evaluations,
+        seed: req.seed,
+    })
+}
+
+/// Risk of flying from the aircraft state through `tail`, each leg at the lower of its
+/// ends' altitudes.
+fn route_risk<'e>(
+    env_at: &impl Fn(f64) -> LegEnv<'e>,
+    s: &AircraftState,
+    tail: &[StackItem],
+    step_m: f64,
+) -> PathRisk {
+    let mut total = PathRisk {
+        end_t_s: s.t_s,
+        ..PathRisk::default()
+    };
+    let (mut prev, mut prev_alt, mut t) = (s.p_m, s.alt_m, s.t_s);
+    for it in tail {
+        let env = env_at(prev_alt.min(it.alt_m));
+        let r = env.path_risk(&[prev, it.p_m], t, step_m);
+        total.peak = total.peak.max(r.peak);
+        total.exposure_m += r.exposure_m;
+        total.hard_violations += r.hard_violations;
+        total.length_m += r.length_m;
+        t = r.end_t_s;
+        prev = it.p_m;
+        prev_alt = it.alt_m;
+    }
+    total.end_t_s = t;
+    total
+}
+
+/// Drops avoid items whose turns cannot be flown when dropping them makes the route no
+/// worse; the rest are reported by the caller.
+fn remove_infeasible_turns<'e>(
+    env_at: &impl Fn(f64) -> LegEnv<'e>,
+    s: &AircraftState,
+    tail: &mut Vec<StackItem>,
+    turn_radius_m: f64,
+    step_m: f64,
+) {
+    for _ in 0..4 {
+        let route: Vec<Point> = std::iter::once(s.p_m)
+            .chain(tail.iter().map(|i| i.p_m))
+            .collect();
+        let bad: Vec<usize> = turn_violations(&route, turn_radius_m, None)
+            .into_iter()
+            .filter(|v| v.index >= 1 && tail[v.index - 1].kind == ItemKind::Avoid)
+            .map(|v| v.index - 1)
+            .collect();
+        if bad.is_empty() {
+            return;
+        }
+        let current = route_risk(env_at, s, tail, step_m);
+        let mut removed = false;
+        for &k in bad.iter().rev() {
+            let mut trial = tail.clone();
+            trial.remove(k);
+            let r = route_risk(env_at, s, &trial, step_m);
+            if !better(&current, &r)
+                && r.hard_violations <= current.hard_violations
+                && r.peak <= current.peak + 1e-12
+            {
+                *tail = trial;
+                removed = true;
+                break;
+            }
+        }
+        if !removed {
+            return;
+        }
+    }
+}

@@ -1,0 +1,232 @@
+//! Test and bench support: a synthetic moving-obstacle risk field (until the predictor's
+//! `RiskMap` is used directly) and a Webster Field mission converted to ENU.
+#![allow(dead_code)]
+
+use planner::geometry::{Point, dist, dist_point_segment, lerp, segments_intersect};
+use predictor::RiskField;
+
+/// One moving obstacle: risk 1 within `radius_m` of its centre, a Gaussian fall-off
+/// outside whose spread grows with the time ahead (prediction uncertainty).
+#[derive(Debug, Clone, Copy)]
+pub struct Blob {
+    /// Centre at t = 0, ENU metres.
+    pub p0_m: Point,
+    /// Velocity, m/s.
+    pub v_mps: Point,
+    /// Hard radius, metres.
+    pub radius_m: f64,
+    /// Fall-off spread at t = 0, metres.
+    pub sigma0_m: f64,
+    /// Spread growth, metres per second.
+    pub growth_mps: f64,
+}
+
+impl Blob {
+    fn center(&self, t: f64) -> Point {
+        [
+            self.p0_m[0] + self.v_mps[0] * t,
+            self.p0_m[1] + self.v_mps[1] * t,
+        ]
+    }
+    fn sigma(&self, t: f64) -> f64 {
+        self.sigma0_m + self.growth_mps * t.max(0.0)
+    }
+}
+
+/// Moving Gaussian blobs; risk is the largest blob's value.
+#[derive(Debug, Clone, Default)]
+pub struct Blobs(pub Vec<Blob>);
+
+impl RiskField for Blobs {
+    fn risk(&self, p: [f64; 2], t: f64) -> f64 {
+        let mut r: f64 = 0.0;
+        for b in &self.0 {
+            let d = (dist(p, b.center(t)) - b.radius_m).max(0.0);
+            let s = b.sigma(t);
+            // Cheap reject beyond 4 sigma (risk < 3.4e-4).
+            if d > 4.0 * s {
+                continue;
+            }
+            r = r.max((-d * d / (2.0 * s * s)).exp());
+        }
+        r
+    }
+
+    fn segment_risk_bound(&self, a: [f64; 2], b: [f64; 2], t0: f64, t1: f64) -> f64 {
+        // Conservative: distance between the leg and the segment swept by the centre.
+        let mut r: f64 = 0.0;
+        for o in &self.0 {
+            let (c0, c1) = (o.center(t0), o.center(t1));
+            let d = if segments_intersect(a, b, c0, c1) {
+                0.0
+            } else {
+                dist_point_segment(c0, a, b)
+                    .min(dist_point_segment(c1, a, b))
+                    .min(dist_point_segment(a, c0, c1))
+                    .min(dist_point_segment(b, c0, c1))
+            };
+            let d = (d - o.radius_m).max(0.0);
+            let s = o.sigma(t0).max(o.sigma(t1));
+            if d > 4.0 * s {
+                continue;
+            }
+            r = r.max((-d * d / (2.0 * s * s)).exp());
+        }
+        r
+    }
+}
+
+/// Densely sampled check that `segment_risk_bound` is an upper bound (used in tests).
+pub fn sampled_max(f: &dyn RiskField, a: Point, b: Point, t0: f64, t1: f64) -> f64 {
+    (0..=200)
+        .map(|i| {
+            let u = f64::from(i) / 200.0;
+            f.risk(lerp(a, b, u), t0 + (t1 - t0) * u)
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Feet to metres.
+pub const FT: f64 = 0.3048;
+
+/// The 2021 Webster Field interop mission in ENU metres (origin: the lost-comms position,
+/// altitude 0 MSL), converted with `map_3d` (WGS84 -> ECEF -> ENU, angles in radians).
+pub fn webster() -> planner::Mission {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../shared/fixtures/interop/mission_2021_webster_field.json"
+    );
+    let text = std::fs::read_to_string(path).expect("Webster fixture");
+    webster_from_json(&text)
+}
+
+/// Parses a 2019+ protobuf-JSON interop mission into ENU metres.
+pub fn webster_from_json(text: &str) -> planner::Mission {
+    let v: serde_json::Value = serde_json::from_str(text).unwrap();
+    let lat0 = v["lostCommsPos"]["latitude"].as_f64().unwrap();
+    let lon0 = v["lostCommsPos"]["longitude"].as_f64().unwrap();
+    let enu = |lat: f64, lon: f64| -> Point {
+        let (e, n, _u) = map_3d::geodetic2enu(
+            lat.to_radians(),
+            lon.to_radians(),
+            0.0,
+            lat0.to_radians(),
+            lon0.to_radians(),
+            0.0,
+            map_3d::Ellipsoid::WGS84,
+        );
+        [e, n]
+    };
+    let f = |x: &serde_json::Value| x.as_f64().unwrap();
+    let fly_zones = v["flyZones"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|z| planner::FlyZone {
+            boundary_m: z["boundaryPoints"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| enu(f(&p["latitude"]), f(&p["longitude"])))
+                .collect(),
+            alt_min_m: f(&z["altitudeMin"]) * FT,
+            alt_max_m: f(&z["altitudeMax"]) * FT,
+        })
+        .collect();
+    let waypoints = v["waypoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| planner::Waypoint {
+            p_m: enu(f(&p["latitude"]), f(&p["longitude"])),
+            alt_m: f(&p["altitude"]) * FT,
+        })
+        .collect();
+    let cylinders = v["stationaryObstacles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| planner::Cylinder {
+            center_m: enu(f(&c["latitude"]), f(&c["longitude"])),
+            radius_m: f(&c["radius"]) * FT,
+            top_m: f(&c["height"]) * FT,
+        })
+        .collect();
+    planner::Mission {
+        fly_zones,
+        cylinders,
+        waypoints,
+    }
+}
+
+/// `n` synthetic moving obstacles over the mission's bounding box, from a seed.
+pub fn synthetic_movers(mission: &planner::Mission, n: usize, seed: u64) -> Blobs {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let pts = &mission.fly_zones[0].boundary_m;
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in pts {
+        lo = [lo[0].min(p[0]), lo[1].min(p[1])];
+        hi = [hi[0].max(p[0]), hi[1].max(p[1])];
+    }
+    Blobs(
+        (0..n)
+            .map(|_| {
+                let heading: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+                let speed: f64 = rng.random_range(0.0..20.0);
+                Blob {
+                    p0_m: [
+                        rng.random_range(lo[0]..hi[0]),
+                        rng.random_range(lo[1]..hi[1]),
+                    ],
+                    v_mps: [speed * heading.sin(), speed * heading.cos()],
+                    radius_m: rng.random_range(10.0..45.0),
+                    sigma0_m: 10.0,
+                    growth_mps: 1.0,
+                }
+            })
+            .collect(),
+    )
+}
+
+/// `n` cylinders placed between the mission's consecutive waypoints (so they matter),
+/// deterministically, for static-only benches.
+pub fn cylinders_on_legs(
+    mission: &planner::Mission,
+    n: usize,
+    seed: u64,
+) -> Vec<planner::Cylinder> {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let zone = planner::mission::Zones::new(&mission.fly_zones);
+    let w = &mission.waypoints;
+    let mut out: Vec<planner::Cylinder> = Vec::new();
+    let mut tries = 0;
+    while out.len() < n && tries < 10_000 {
+        tries += 1;
+        let i = rng.random_range(0..w.len() - 1);
+        let (a, b) = (w[i].p_m, w[i + 1].p_m);
+        let c = lerp(a, b, rng.random_range(0.3..0.7));
+        let c = [
+            c[0] + rng.random_range(-15.0..15.0),
+            c[1] + rng.random_range(-15.0..15.0),
+        ];
+        let r = rng.random_range(15.0..60.0);
+        let clear_of_wps = w.iter().all(|q| dist(q.p_m, c) > 1.3 * r + 20.0);
+        let apart = out
+            .iter()
+            .all(|o| dist(o.center_m, c) > 1.5 * (o.radius_m + r) + 30.0);
+        if clear_of_wps
+            && apart
+            && zone.polygons()[0].boundary_distance(c) > 2.0 * r
+            && zone.contains(c)
+        {
+            out.push(planner::Cylinder {
+                center_m: c,
+                radius_m: r,
+                top_m: 1000.0,
+            });
+        }
+    }
+    out
+}
