@@ -7,3 +7,7 @@ pub mod geometry;
 pub mod mission;
 pub mod scenario;
 pub mod spline;
+pub mod aircraft;
+pub mod lidar;
+pub mod scoring;
+pub mod telemetry;

@@ -1,0 +1,295 @@
+//! Judge-style scoring (as the interop server did it): the aircraft's telemetry is
+//! interpolated every 0.1 s across gaps of at most 5 s; a sphere is hit when an interpolated
+//! point lies within its radius (3-D distance, the sphere's true position at that time), a
+//! cylinder when a point lies within its radius horizontally and at or below its top; per
+//! class the score is `(fraction of obstacles not hit)^3`; a waypoint is captured when a
+//! point comes within 100 ft (30.48 m, 3-D). Also: minimum clearance to any obstacle surface
+//! and time spent outside the fly zone or its altitude band.
+//!
+//! # Units
+//! Seconds, ENU metres, metres MSL.
+
+use serde::{Deserialize, Serialize};
+
+use crate::geometry::{P2, point_in_polygon, xy};
+use crate::mission::{Cylinder, Mission};
+
+/// Interpolation step of the judges, seconds.
+pub const JUDGE_STEP_S: f64 = 0.1;
+/// Longest telemetry gap the judges interpolated across, seconds.
+pub const JUDGE_MAX_GAP_S: f64 = 5.0;
+/// Waypoint capture distance, metres (100 ft).
+pub const WAYPOINT_CAPTURE_M: f64 = 30.48;
+
+/// Where the moving spheres truly are.
+pub trait SphereTruth {
+    /// Number of spheres.
+    fn sphere_count(&self) -> usize;
+    /// Centre (ENU metres, MSL) and radius (metres) of sphere `i` at `t_s`.
+    fn sphere_at(&self, i: usize, t_s: f64) -> ([f64; 3], f64);
+}
+
+impl SphereTruth for crate::scenario::Scenario {
+    fn sphere_count(&self) -> usize {
+        self.spheres.len()
+    }
+    fn sphere_at(&self, i: usize, t_s: f64) -> ([f64; 3], f64) {
+        let s = &self.spheres[i];
+        (s.track.at(t_s), s.radius_m)
+    }
+}
+
+/// The judges' points: every telemetry sample, plus points every 0.1 s between consecutive
+/// samples at most 5 s apart (linear interpolation).
+pub fn interpolate(telemetry: &[(f64, [f64; 3])]) -> Vec<(f64, [f64; 3])> {
+    let mut out = Vec::with_capacity(telemetry.len() * 4);
+    for w in telemetry.windows(2) {
+        let ((t0, a), (t1, b)) = (w[0], w[1]);
+        out.push((t0, a));
+        let gap = t1 - t0;
+        if gap > JUDGE_MAX_GAP_S || gap <= 0.0 {
+            continue;
+        }
+        let mut k = 1;
+        loop {
+            let t = t0 + f64::from(k) * JUDGE_STEP_S;
+            if t >= t1 - 1e-9 {
+                break;
+            }
+            let f = (t - t0) / gap;
+            out.push((t, [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f]));
+            k += 1;
+        }
+    }
+    if let Some(last) = telemetry.last() {
+        out.push(*last);
+    }
+    out
+}
+
+/// What the judges would have scored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JudgeReport {
+    /// Per moving sphere: hit?
+    pub sphere_hits: Vec<bool>,
+    /// Per cylinder: hit?
+    pub cylinder_hits: Vec<bool>,
+    /// `(fraction of spheres not hit)^3` (1 with no spheres).
+    pub sphere_score: f64,
+    /// `(fraction of cylinders not hit)^3` (1 with no cylinders).
+    pub cylinder_score: f64,
+    /// Per mission waypoint: captured?
+    pub waypoints_captured: Vec<bool>,
+    /// Smallest distance from a judged point to any obstacle surface (negative inside), metres.
+    pub min_clearance_m: f64,
+    /// Seconds of judged points outside the fly zone or its altitude band.
+    pub boundary_violation_s: f64,
+    /// Number of separate excursions out of the fly zone.
+    pub boundary_excursions: usize,
+}
+
+/// `(fraction not hit)^3`.
+pub fn class_score(hits: &[bool]) -> f64 {
+    if hits.is_empty() {
+        return 1.0;
+    }
+    let not_hit = hits.iter().filter(|h| !**h).count() as f64 / hits.len() as f64;
+    not_hit.powi(3)
+}
+
+/// Clearance from `p` to a cylinder's surface (negative inside): horizontal when at or below
+/// the top, else the distance to the top disc.
+pub fn cylinder_clearance_m(p: [f64; 3], c: &Cylinder) -> f64 {
+    let h = ((p[0] - c.center_m[0]).powi(2) + (p[1] - c.center_m[1]).powi(2)).sqrt() - c.radius_m;
+    if p[2] <= c.top_m { h } else { (h.max(0.0).powi(2) + (p[2] - c.top_m).powi(2)).sqrt() }
+}
+
+/// Scores aircraft telemetry `(t, position)` in time order.
+pub fn judge(telemetry: &[(f64, [f64; 3])], spheres: &dyn SphereTruth, mission: &Mission) -> JudgeReport {
+    judge_points(&interpolate(telemetry), spheres, &mission.cylinders, &mission.waypoints_m, Some(mission))
+}
+
+/// Scores already interpolated points; `mission` (optional) supplies the fly zone.
+pub fn judge_points(
+    points: &[(f64, [f64; 3])],
+    spheres: &dyn SphereTruth,
+    cylinders: &[Cylinder],
+    waypoints_m: &[[f64; 3]],
+    mission: Option<&Mission>,
+) -> JudgeReport {
+    let ns = spheres.sphere_count();
+    let mut sphere_hits = vec![false; ns];
+    let mut cylinder_hits = vec![false; cylinders.len()];
+    let mut waypoints_captured = vec![false; waypoints_m.len()];
+    let mut min_clearance_m = f64::INFINITY;
+    let mut boundary_violation_s = 0.0;
+    let mut boundary_excursions = 0;
+    let mut was_out = false;
+    for &(t, p) in points {
+        for i in 0..ns {
+            let (c, r) = spheres.sphere_at(i, t);
+            let d = ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt();
+            if d <= r {
+                sphere_hits[i] = true;
+            }
+            min_clearance_m = min_clearance_m.min(d - r);
+        }
+        for (k, c) in cylinders.iter().enumerate() {
+            let cl = cylinder_clearance_m(p, c);
+            if cl <= 0.0 {
+                cylinder_hits[k] = true;
+            }
+            min_clearance_m = min_clearance_m.min(cl);
+        }
+        for (k, w) in waypoints_m.iter().enumerate() {
+            let d = ((p[0] - w[0]).powi(2) + (p[1] - w[1]).powi(2) + (p[2] - w[2]).powi(2)).sqrt();
+            if d <= WAYPOINT_CAPTURE_M {
+                waypoints_captured[k] = true;
+            }
+        }
+        if let Some(m) = mission {
+            let out = !in_zone(xy(p), &m.fly_zone_m) || p[2] < m.alt_min_m || p[2] > m.alt_max_m;
+            if out {
+                boundary_violation_s += JUDGE_STEP_S;
+                if !was_out {
+                    boundary_excursions += 1;
+                }
+            }
+            was_out = out;
+        }
+    }
+    JudgeReport {
+        sphere_score: class_score(&sphere_hits),
+        cylinder_score: class_score(&cylinder_hits),
+        sphere_hits,
+        cylinder_hits,
+        waypoints_captured,
+        min_clearance_m,
+        boundary_violation_s,
+        boundary_excursions,
+    }
+}
+
+fn in_zone(p: P2, zone: &[P2]) -> bool {
+    zone.len() < 3 || point_in_polygon(p, zone)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sphere standing still.
+    struct Still(Vec<([f64; 3], f64)>);
+    impl SphereTruth for Still {
+        fn sphere_count(&self) -> usize {
+            self.0.len()
+        }
+        fn sphere_at(&self, i: usize, _t: f64) -> ([f64; 3], f64) {
+            self.0[i]
+        }
+    }
+
+    /// A sphere moving east at 10 m/s from x = 0.
+    struct Moving;
+    impl SphereTruth for Moving {
+        fn sphere_count(&self) -> usize {
+            1
+        }
+        fn sphere_at(&self, _i: usize, t: f64) -> ([f64; 3], f64) {
+            ([10.0 * t, 0.0, 100.0], 10.0)
+        }
+    }
+
+    fn no_mission(points: &[(f64, [f64; 3])], s: &dyn SphereTruth, cyl: &[Cylinder]) -> JudgeReport {
+        judge_points(&interpolate(points), s, cyl, &[], None)
+    }
+
+    #[test]
+    fn a_pass_between_two_samples_outside_a_sphere_is_caught_by_the_interpolation() {
+        // Sphere r = 30 at (0, 0, 100). Samples at t = 0 (-50, 0) and t = 4 (50, 0), both 50 m
+        // from the centre (outside), 4 s apart (<= 5 s). The line between them passes through
+        // the centre: at t = 2.0 the interpolated point is (0, 0), 0 m away: a hit.
+        let s = Still(vec![([0.0, 0.0, 100.0], 30.0)]);
+        let tel = [(0.0, [-50.0, 0.0, 100.0]), (4.0, [50.0, 0.0, 100.0])];
+        let r = no_mission(&tel, &s, &[]);
+        assert_eq!(r.sphere_hits, vec![true]);
+        assert_eq!(r.sphere_score, 0.0); // (0/1)^3
+        // Only the samples themselves: no hit.
+        let raw = judge_points(&tel, &s, &[], &[], None);
+        assert_eq!(raw.sphere_hits, vec![false]);
+        assert!((raw.min_clearance_m - 20.0).abs() < 1e-9); // 50 - 30
+    }
+
+    #[test]
+    fn a_gap_longer_than_five_seconds_is_not_interpolated() {
+        // Same geometry, samples 6 s apart: the judges did not fill the gap, no hit.
+        let s = Still(vec![([0.0, 0.0, 100.0], 30.0)]);
+        let tel = [(0.0, [-50.0, 0.0, 100.0]), (6.0, [50.0, 0.0, 100.0])];
+        assert_eq!(no_mission(&tel, &s, &[]).sphere_hits, vec![false]);
+    }
+
+    #[test]
+    fn a_sphere_is_missed_when_the_altitude_clears_it_in_3d() {
+        // Pass right over the centre (horizontal distance 0) but 31 m above a r = 30 sphere.
+        let s = Still(vec![([0.0, 0.0, 100.0], 30.0)]);
+        let tel = [(0.0, [-50.0, 0.0, 131.0]), (4.0, [50.0, 0.0, 131.0])];
+        let r = no_mission(&tel, &s, &[]);
+        assert_eq!(r.sphere_hits, vec![false]);
+        assert!((r.min_clearance_m - 1.0).abs() < 1e-9);
+        // 29 m above: inside (3-D distance 29 <= 30).
+        let tel = [(0.0, [-50.0, 0.0, 129.0]), (4.0, [50.0, 0.0, 129.0])];
+        assert_eq!(no_mission(&tel, &s, &[]).sphere_hits, vec![true]);
+    }
+
+    #[test]
+    fn a_moving_sphere_is_hit_only_where_it_is_at_that_time() {
+        // Sphere moving east 10 m/s, r = 10. Aircraft waits at x = 100: at t = 10 s the sphere
+        // is at x = 100 -> hit. Aircraft waiting at x = 100 only for t in [0, 5]: sphere at
+        // x <= 50 then, 50 m away -> no hit.
+        let hit = [(0.0, [100.0, 0.0, 100.0]), (4.0, [100.0, 0.0, 100.0]), (8.0, [100.0, 0.0, 100.0]), (12.0, [100.0, 0.0, 100.0])];
+        assert_eq!(no_mission(&hit, &Moving, &[]).sphere_hits, vec![true]);
+        let miss = [(0.0, [100.0, 0.0, 100.0]), (5.0, [100.0, 0.0, 100.0])];
+        let r = no_mission(&miss, &Moving, &[]);
+        assert_eq!(r.sphere_hits, vec![false]);
+        assert!((r.min_clearance_m - 40.0).abs() < 1e-9); // 100 - 50 - 10
+    }
+
+    #[test]
+    fn a_cylinder_counts_at_or_below_its_top_only() {
+        // Cylinder r = 20 at the origin, top 100 m. Passing through its axis at 100 m (= top):
+        // hit. At 100.5 m: no hit, clearance 0.5 m (straight above the top disc).
+        let c = [Cylinder { center_m: [0.0, 0.0], radius_m: 20.0, top_m: 100.0 }];
+        let none = Still(vec![]);
+        let at_top = [(0.0, [-50.0, 0.0, 100.0]), (5.0, [50.0, 0.0, 100.0])];
+        assert_eq!(no_mission(&at_top, &none, &c).cylinder_hits, vec![true]);
+        let above = [(0.0, [-50.0, 0.0, 100.5]), (5.0, [50.0, 0.0, 100.5])];
+        let r = no_mission(&above, &none, &c);
+        assert_eq!(r.cylinder_hits, vec![false]);
+        assert!((r.min_clearance_m - 0.5).abs() < 1e-9);
+        // Passing 21 m to the side at 50 m altitude: no hit, clearance 1 m.
+        let side = [(0.0, [-50.0, 21.0, 50.0]), (5.0, [50.0, 21.0, 50.0])];
+        let r = no_mission(&side, &none, &c);
+        assert_eq!(r.cylinder_hits, vec![false]);
+        assert!((r.min_clearance_m - 1.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn the_class_score_is_the_cube_of_the_fraction_not_hit() {
+        // 1 of 4 hit: (3/4)^3 = 0.421875; none: 1; all: 0.
+        assert!((class_score(&[true, false, false, false]) - 0.421875).abs() < 1e-12);
+        assert_eq!(class_score(&[false, false]), 1.0);
+        assert_eq!(class_score(&[true, true]), 0.0);
+        assert_eq!(class_score(&[]), 1.0);
+    }
+
+    #[test]
+    fn a_waypoint_counts_within_100_ft() {
+        // Waypoint at (0, 0, 100). Pass at 30 m lateral: captured (30 <= 30.48); at 31 m: not.
+        let none = Still(vec![]);
+        let w = [[0.0, 0.0, 100.0]];
+        let near = interpolate(&[(0.0, [-50.0, 30.0, 100.0]), (5.0, [50.0, 30.0, 100.0])]);
+        assert_eq!(judge_points(&near, &none, &[], &w, None).waypoints_captured, vec![true]);
+        let far = interpolate(&[(0.0, [-50.0, 31.0, 100.0]), (5.0, [50.0, 31.0, 100.0])]);
+        assert_eq!(judge_points(&far, &none, &[], &w, None).waypoints_captured, vec![false]);
+    }
+}
