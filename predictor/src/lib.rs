@@ -2,9 +2,33 @@
 //!
 //! Everything here works in the mission's local East-North-Up frame, in metres and
 //! mission seconds. The crate knows nothing of HTTP or databases.
+//!
+//! - [`track`]: observations in timestamp order, duplicates, flagged jumps.
+//! - [`estimate`]: velocity, heading, speed, turn samples, tightest turn radius.
+//! - [`stage`]: the four stages and the tests between them.
+//! - [`motion`]: each stage's motion model and particle propagation.
+//! - [`risk_map`]: the time-indexed, incrementally updated risk map.
+//! - [`predictor`]: the multi-obstacle [`Predictor`] tying them together.
+//! - [`stats`]: chi-square and divergence helpers.
 
 #![warn(missing_docs)]
 
+pub mod estimate;
 pub mod field;
+pub mod motion;
+pub mod predictor;
+pub mod risk_map;
+pub mod stage;
+pub mod stats;
+pub mod track;
 
-pub use field::RiskField;
+pub use estimate::{Estimates, EstimatorConfig};
+pub use field::{NoRisk, RiskField};
+pub use motion::MotionModel;
+pub use predictor::{
+    ConstantVelocityField, ObstacleSummary, Predictor, PredictorConfig,
+    RULES_MAX_OBSTACLE_SPEED_MPS,
+};
+pub use risk_map::{RiskMap, RiskMapConfig, RiskMapError, SliceView};
+pub use stage::{Stage, StageChange, StageConfig};
+pub use track::{Observation, ObserveOutcome};

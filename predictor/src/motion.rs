@@ -1,0 +1,327 @@
+//! Motion models of the characterization stages and their particle propagation (seed 002,
+//! "Random probability mapping", "Advanced probability mapping", "Consideration of past
+//! behavior"; the NoFly disc of "No fly zones" is analytic).
+//!
+//! Every model flies at the constant estimated speed and redraws its turn rate at each
+//! decision boundary `k * decision_interval_s` (the same clock the turn samples use):
+//! - Random: uniform over `[-w_max, w_max]`;
+//! - Advanced: a bin from the smoothed histogram, uniform within the bin;
+//! - Memory: a bin from the smoothed histogram conditioned on the slice of the previous
+//!   bin, uniform within the bin.
+//!
+//! Turn rates are drawn on a lattice of `LEVELS_PER_BIN` evenly spaced levels per bin, so
+//! that the arc of one step is a table lookup (no trigonometry per particle and step);
+//! arcs are integrated exactly.
+//!
+//! # Units
+//! ENU metres, seconds, radians (heading counter-clockwise from east), m/s.
+
+use crate::estimate::Estimates;
+use crate::stage::{Stage, StageConfig, TurnHistogram, slice_of};
+use crate::stats::smoothed;
+use rand::Rng;
+
+/// Lattice levels per histogram bin.
+pub const LEVELS_PER_BIN: usize = 8;
+
+/// Everything needed to propagate one obstacle forward from its last observation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionModel {
+    /// The stage whose model this is.
+    pub stage: Stage,
+    /// Start time (the newest observation), seconds.
+    pub t_s: f64,
+    /// Start position, ENU metres.
+    pub position_m: [f64; 2],
+    /// Start heading, radians counter-clockwise from east.
+    pub heading_rad: f64,
+    /// Constant speed, m/s.
+    pub speed_mps: f64,
+    /// Turn-rate capability, rad/s.
+    pub w_max_radps: f64,
+    /// Decision interval, seconds.
+    pub decision_interval_s: f64,
+    /// NoFly growth speed, m/s.
+    pub nofly_speed_mps: f64,
+    /// Number of histogram bins.
+    pub bins: usize,
+    /// Cumulative bin probabilities per row, scaled to `u32` (one row for Advanced, one per
+    /// slice for Memory, empty for Random and NoFly).
+    cdf: Vec<Vec<u32>>,
+    /// Slice of each bin (for Memory).
+    slice_of_bin: Vec<usize>,
+    /// Bin of the most recent turn sample.
+    last_bin: Option<usize>,
+}
+
+fn cdf_u32(p: &[f64]) -> Vec<u32> {
+    let mut acc = 0.0;
+    let mut out: Vec<u32> = p
+        .iter()
+        .map(|x| {
+            acc += x;
+            (acc * 4_294_967_296.0).min(4_294_967_295.0) as u32
+        })
+        .collect();
+    if let Some(l) = out.last_mut() {
+        *l = u32::MAX;
+    }
+    out
+}
+
+impl MotionModel {
+    /// Builds the model of `stage` from the estimates and histograms.
+    pub fn new(
+        stage: Stage,
+        est: &Estimates,
+        hist: &TurnHistogram,
+        decision_interval_s: f64,
+        nofly_speed_mps: f64,
+        cfg: &StageConfig,
+    ) -> Self {
+        let cdf = match stage {
+            Stage::NoFly | Stage::Random => Vec::new(),
+            Stage::Advanced => vec![cdf_u32(&smoothed(&hist.counts, cfg.smoothing_alpha))],
+            Stage::Memory => hist
+                .table
+                .iter()
+                .map(|row| cdf_u32(&smoothed(row, cfg.smoothing_alpha)))
+                .collect(),
+        };
+        Self {
+            stage,
+            t_s: est.t_s,
+            position_m: est.position_m,
+            heading_rad: est.velocity_mps[1].atan2(est.velocity_mps[0]),
+            speed_mps: est.speed_mps,
+            w_max_radps: hist.w_max_radps,
+            decision_interval_s,
+            nofly_speed_mps,
+            bins: cfg.turn_bins,
+            cdf,
+            slice_of_bin: (0..cfg.turn_bins).map(|b| slice_of(b, cfg)).collect(),
+            last_bin: hist.last_bin,
+        }
+    }
+
+    /// How far the obstacle can be from its start position after `dt_s` seconds, metres
+    /// (ignoring its radius).
+    pub fn reach_m(&self, dt_s: f64) -> f64 {
+        let v = if self.stage == Stage::NoFly {
+            self.nofly_speed_mps
+        } else {
+            self.speed_mps
+        };
+        v * dt_s.max(0.0)
+    }
+
+    fn levels(&self) -> usize {
+        self.bins * LEVELS_PER_BIN
+    }
+
+    fn draw_level<R: Rng + ?Sized>(&self, prev_bin: Option<usize>, rng: &mut R) -> usize {
+        let r = rng.next_u64();
+        let hi = (r >> 32) as u32;
+        let lo = r as u32;
+        let levels = self.levels() as u64;
+        match self.stage {
+            Stage::NoFly | Stage::Random => ((u64::from(hi) * levels) >> 32) as usize,
+            Stage::Advanced | Stage::Memory => {
+                let row = if self.stage == Stage::Memory {
+                    prev_bin.map_or(0, |b| self.slice_of_bin[b])
+                } else {
+                    0
+                };
+                let cdf = &self.cdf[row.min(self.cdf.len() - 1)];
+                let bin = cdf.partition_point(|&c| c < hi).min(self.bins - 1);
+                let sub = ((u64::from(lo) * LEVELS_PER_BIN as u64) >> 32) as usize;
+                bin * LEVELS_PER_BIN + sub
+            }
+        }
+    }
+
+    /// Samples `n` positions at `t_s + dt_s` (dt counted from the model's start time).
+    /// NoFly: uniform over the disc of radius `nofly_speed_mps * dt_s`.
+    pub fn sample_future<R: Rng + ?Sized>(
+        &self,
+        dt_s: f64,
+        n: usize,
+        rng: &mut R,
+    ) -> Vec<[f64; 2]> {
+        if self.stage == Stage::NoFly {
+            let r_max = self.reach_m(dt_s);
+            return (0..n)
+                .map(|_| {
+                    let u = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64;
+                    let a =
+                        (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * std::f64::consts::TAU;
+                    let r = r_max * u.sqrt();
+                    [
+                        self.position_m[0] + r * a.cos(),
+                        self.position_m[1] + r * a.sin(),
+                    ]
+                })
+                .collect();
+        }
+        let mut p = Propagator::new(self, n, rng);
+        p.advance_to(self.t_s + dt_s, rng);
+        (0..n).map(|i| [p.x[i], p.y[i]]).collect()
+    }
+}
+
+/// Particles of one model, advanced together (struct of arrays).
+#[derive(Debug, Clone)]
+pub struct Propagator<'a> {
+    model: &'a MotionModel,
+    /// East coordinates, metres.
+    pub x: Vec<f64>,
+    /// North coordinates, metres.
+    pub y: Vec<f64>,
+    ux: Vec<f64>,
+    uy: Vec<f64>,
+    level: Vec<u16>,
+    t_s: f64,
+    next_decision_s: f64,
+    tables: Vec<(u64, Vec<[f64; 4]>)>,
+}
+
+impl<'a> Propagator<'a> {
+    /// `n` particles at the model's start, each with a first turn drawn for the current
+    /// decision interval.
+    pub fn new<R: Rng + ?Sized>(model: &'a MotionModel, n: usize, rng: &mut R) -> Self {
+        let (s, c) = model.heading_rad.sin_cos();
+        let dti = model.decision_interval_s;
+        let level = (0..n)
+            .map(|_| model.draw_level(model.last_bin, rng) as u16)
+            .collect();
+        Self {
+            model,
+            x: vec![model.position_m[0]; n],
+            y: vec![model.position_m[1]; n],
+            ux: vec![c; n],
+            uy: vec![s; n],
+            level,
+            t_s: model.t_s,
+            next_decision_s: ((model.t_s / dti).floor() + 1.0) * dti,
+            tables: Vec::new(),
+        }
+    }
+
+    /// Current time of the particles, seconds.
+    pub fn t_s(&self) -> f64 {
+        self.t_s
+    }
+
+    fn table(&mut self, h: f64) -> usize {
+        let key = h.to_bits();
+        if let Some(i) = self.tables.iter().position(|(k, _)| *k == key) {
+            return i;
+        }
+        let m = self.model;
+        let levels = m.levels();
+        let width = 2.0 * m.w_max_radps / levels as f64;
+        let tab = (0..levels)
+            .map(|j| {
+                let w = -m.w_max_radps + (j as f64 + 0.5) * width;
+                let th = w * h;
+                let (s, c) = th.sin_cos();
+                let (a, b) = if w.abs() > 1e-9 {
+                    (s / w, (1.0 - c) / w)
+                } else {
+                    (h, 0.5 * w * h * h)
+                };
+                [c, s, a * m.speed_mps, b * m.speed_mps]
+            })
+            .collect();
+        if self.tables.len() >= 4 {
+            self.tables.remove(0);
+        }
+        self.tables.push((key, tab));
+        self.tables.len() - 1
+    }
+
+    /// Advances every particle to `t_s` (no-op if already there or later).
+    pub fn advance_to<R: Rng + ?Sized>(&mut self, t_s: f64, rng: &mut R) {
+        if self.model.speed_mps <= 0.0 {
+            self.t_s = self.t_s.max(t_s);
+            return;
+        }
+        while self.t_s < t_s - 1e-9 {
+            let t_next = t_s.min(self.next_decision_s);
+            let h = t_next - self.t_s;
+            // Round the step so that repeated steps of one length share a table.
+            let h = (h * 1e9).round() / 1e9;
+            let ti = self.table(h);
+            let tab = &self.tables[ti].1;
+            for i in 0..self.x.len() {
+                let [c, s, a, b] = tab[self.level[i] as usize];
+                let (ux, uy) = (self.ux[i], self.uy[i]);
+                self.x[i] += a * ux - b * uy;
+                self.y[i] += a * uy + b * ux;
+                self.ux[i] = c * ux - s * uy;
+                self.uy[i] = s * ux + c * uy;
+            }
+            self.t_s = t_next;
+            if self.t_s >= self.next_decision_s - 1e-9 {
+                self.next_decision_s += self.model.decision_interval_s;
+                for i in 0..self.level.len() {
+                    let prev_bin = self.level[i] as usize / LEVELS_PER_BIN;
+                    self.level[i] = self.model.draw_level(Some(prev_bin), rng) as u16;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+
+    fn est(speed: f64) -> Estimates {
+        Estimates {
+            t_s: 10.0,
+            position_m: [0.0, 0.0],
+            velocity_mps: [speed, 0.0],
+            speed_mps: speed,
+            heading_deg: Some(90.0),
+            min_turn_radius_m: None,
+            turn_rate_max_dps: 5.0,
+            turn_rate_dps: None,
+            mean_turn_rate_dps: None,
+        }
+    }
+
+    #[test]
+    fn particles_fly_at_constant_speed_within_the_reachable_disc() {
+        let cfg = StageConfig::default();
+        let hist = TurnHistogram::build(&[], 0.3, &cfg);
+        let m = MotionModel::new(Stage::Random, &est(10.0), &hist, 1.0, 25.0, &cfg);
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let pts = m.sample_future(5.0, 200, &mut rng);
+        for p in &pts {
+            // Arc length 50 m: the chord is at most 50 m and (max turn 0.3 rad/s over 5 s
+            // = 1.5 rad, chord of a 1.5 rad arc of length 50 = 2 R sin(0.75), R = 33.3)
+            // at least 45.4 m.
+            let d = p[0].hypot(p[1]);
+            assert!(d <= 50.0 + 1e-9 && d >= 45.0, "{d}");
+        }
+    }
+
+    #[test]
+    fn a_straight_histogram_predicts_a_straight_line() {
+        let cfg = StageConfig::default();
+        let mut hist = TurnHistogram::build(&[], 0.1, &cfg);
+        hist.counts = vec![0, 0, 0, 0, 1000, 0, 0, 0, 0];
+        let m = MotionModel::new(Stage::Advanced, &est(10.0), &hist, 1.0, 25.0, &cfg);
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let pts = m.sample_future(10.0, 500, &mut rng);
+        let near = pts
+            .iter()
+            .filter(|p| (p[0] - 100.0).abs() < 2.0 && p[1].abs() < 6.0)
+            .count();
+        // Smoothing leaves 4 / 1004.5 mass outside the centre bin; nearly all stay close.
+        assert!(near >= 480, "{near}");
+    }
+}
