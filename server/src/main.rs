@@ -1,1 +1,5 @@
-fn main() {}
+//! The `jink` binary; everything lives in the library.
+
+fn main() -> std::process::ExitCode {
+    server::cli::run()
+}

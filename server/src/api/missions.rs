@@ -1,0 +1,200 @@
+//! Missions: upload (native, interop 2017/2018, interop 2019+ protobuf-JSON), list, get,
+//! delete.
+
+use axum::extract::{Path, State};
+use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use serde::Deserialize;
+use utoipa::{IntoParams, ToSchema};
+use utoipa_axum::{router::OpenApiRouter, routes};
+
+use crate::app::AppState;
+use crate::error::{ApiError, Problem};
+use crate::extract::{ApiQuery, Body, parse_json, require_json};
+use crate::interop;
+use crate::mission::{self, Mission, MissionInput, SourceFormat};
+use crate::time::{format_rfc3339, now_s};
+
+/// `?format=` of a mission upload.
+#[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct UploadParams {
+    /// Forces the body's format instead of detecting it: `native`, `interop-2018` or
+    /// `interop-2019`.
+    pub format: Option<FormatParam>,
+}
+
+/// A mission format name.
+#[derive(Debug, Clone, Copy, Deserialize, ToSchema)]
+pub enum FormatParam {
+    /// jink's own JSON.
+    #[serde(rename = "native")]
+    Native,
+    /// Interop server 2017/2018 JSON.
+    #[serde(rename = "interop-2018")]
+    Interop2018,
+    /// Interop server 2019+ protobuf-JSON.
+    #[serde(rename = "interop-2019")]
+    Interop2019,
+}
+
+impl From<FormatParam> for SourceFormat {
+    fn from(f: FormatParam) -> Self {
+        match f {
+            FormatParam::Native => Self::Native,
+            FormatParam::Interop2018 => Self::Interop2018,
+            FormatParam::Interop2019 => Self::Interop2019,
+        }
+    }
+}
+
+/// Upload a mission.
+///
+/// The body is jink's native mission JSON, an interop 2017/2018 mission (or the 2018
+/// `GET /api/missions` list), or an interop 2019+ protobuf-JSON mission (camelCase or
+/// snake_case keys). The format is detected unless `?format=` forces it. Interop feet and
+/// knots become metres and m/s. A list creates every mission in it, all or none, and
+/// answers with the list.
+#[utoipa::path(post, path = "/api/v1/missions", tag = "missions", params(UploadParams),
+    request_body(content = MissionInput, description = "A mission in native form (or an interop mission, detected)", content_type = "application/json"),
+    responses(
+        (status = 201, description = "Stored; `Location` names the (first) mission", body = Mission,
+            headers(("Location" = String, description = "URL of the stored mission"))),
+        (status = 400, description = "Malformed JSON or a field of the wrong type", body = Problem, content_type = "application/problem+json"),
+        (status = 413, description = "Body larger than the limit", body = Problem, content_type = "application/problem+json"),
+        (status = 415, description = "Not a JSON body", body = Problem, content_type = "application/problem+json"),
+        (status = 422, description = "Invalid mission: each offending field named by a JSON pointer", body = Problem, content_type = "application/problem+json"),
+    ))]
+async fn create_mission(
+    State(state): State<AppState>,
+    ApiQuery(params): ApiQuery<UploadParams>,
+    headers: HeaderMap,
+    Body(body): Body,
+) -> Result<Response, ApiError> {
+    require_json(&headers)?;
+    let value: serde_json::Value = parse_json(&body)?;
+    let is_list = value.is_array();
+    let format = params.format.map_or_else(
+        || interop::detect_mission_format(&value),
+        SourceFormat::from,
+    );
+    let snake = format == SourceFormat::Interop2019 && interop::uses_snake_case(&value);
+    let parsed = interop::parse_missions(value, format)?;
+    let now = now_s();
+    let mut missions = Vec::with_capacity(parsed.len());
+    let mut errors = Vec::new();
+    for (input, names) in parsed {
+        let names = if snake {
+            interop::snake_names(names)
+        } else {
+            names
+        };
+        match mission::validate(input, &names) {
+            Ok((content, home)) => missions.push(Mission {
+                id: new_mission_id(),
+                source_format: format,
+                created_at: format_rfc3339(now),
+                home,
+                content,
+            }),
+            Err(e) => errors.extend(e),
+        }
+    }
+    if !errors.is_empty() {
+        return Err(ApiError::Validation(errors));
+    }
+    state.store.insert_missions(&missions, now).await?;
+    tracing::info!(
+        n = missions.len(),
+        format = format.as_str(),
+        "missions stored"
+    );
+    let location = format!("/api/v1/missions/{}", missions[0].id);
+    let body = if is_list {
+        serde_json::to_vec(&missions)
+    } else {
+        serde_json::to_vec(&missions[0])
+    }
+    .map_err(|e| ApiError::Internal(e.to_string()))?;
+    let mut resp = (StatusCode::CREATED, body).into_response();
+    let h = resp.headers_mut();
+    h.insert(
+        header::CONTENT_TYPE,
+        HeaderValue::from_static("application/json"),
+    );
+    h.insert(
+        header::LOCATION,
+        HeaderValue::from_str(&location).map_err(|e| ApiError::Internal(e.to_string()))?,
+    );
+    Ok(resp)
+}
+
+/// A new mission id: 16 hex digits, random.
+fn new_mission_id() -> String {
+    format!("{:016x}", rand::random::<u64>())
+}
+
+/// List every mission, oldest first.
+#[utoipa::path(get, path = "/api/v1/missions", tag = "missions",
+    responses((status = 200, description = "All stored missions", body = [Mission])))]
+async fn list_missions(
+    State(state): State<AppState>,
+) -> Result<axum::Json<Vec<Mission>>, ApiError> {
+    Ok(axum::Json(state.store.list_missions().await?))
+}
+
+/// One mission in native form.
+#[utoipa::path(get, path = "/api/v1/missions/{id}", tag = "missions",
+    params(("id" = String, Path, description = "Mission id")),
+    responses(
+        (status = 200, description = "The mission", body = Mission),
+        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
+    ))]
+async fn get_mission(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<axum::Json<Mission>, ApiError> {
+    state
+        .store
+        .get_mission(&id)
+        .await?
+        .map(axum::Json)
+        .ok_or_else(|| ApiError::not_found("mission", id))
+}
+
+/// Delete a mission and all telemetry, plans and state recorded for it.
+#[utoipa::path(delete, path = "/api/v1/missions/{id}", tag = "missions",
+    params(("id" = String, Path, description = "Mission id")),
+    responses(
+        (status = 204, description = "Deleted"),
+        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
+    ))]
+async fn delete_mission(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<StatusCode, ApiError> {
+    if state.store.delete_mission(&id).await? {
+        Ok(StatusCode::NO_CONTENT)
+    } else {
+        Err(ApiError::not_found("mission", id))
+    }
+}
+
+/// Loads a mission or answers 404.
+///
+/// # Errors
+/// 404 when the mission does not exist; 500 on a database failure.
+pub async fn load(state: &AppState, id: &str) -> Result<Mission, ApiError> {
+    state
+        .store
+        .get_mission(id)
+        .await?
+        .ok_or_else(|| ApiError::not_found("mission", id))
+}
+
+/// Mission routes.
+pub fn router() -> OpenApiRouter<AppState> {
+    OpenApiRouter::new()
+        .routes(routes!(create_mission, list_missions))
+        .routes(routes!(get_mission, delete_mission))
+}

@@ -1,0 +1,61 @@
+//! The HTTP API under `/api/v1` plus the service routes, every one of them in the
+//! OpenAPI document (they are registered only through [`OpenApiRouter::routes`]).
+//!
+//! Each resource module owns its router and its wire types.
+
+use utoipa::OpenApi;
+use utoipa_axum::router::OpenApiRouter;
+
+use crate::app::AppState;
+
+pub mod health;
+pub mod missions;
+pub mod operator;
+pub mod reactive;
+pub mod telemetry;
+
+/// The document's fixed parts; paths and schemas come from the routers.
+#[derive(OpenApi)]
+#[openapi(
+    info(
+        title = "jink",
+        description = "Ground-station planning service for fixed-wing UAVs flying SUAS-style missions: \
+mission upload (native and interop formats), obstacle and aircraft telemetry, obstacle prediction, \
+risk maps, avoidance plans and exports. Errors are RFC 9457 application/problem+json.",
+        license(name = "MIT OR Apache-2.0", identifier = "MIT OR Apache-2.0"),
+        version = "1"
+    ),
+    tags(
+        (name = "missions", description = "Mission upload and retrieval"),
+        (name = "telemetry", description = "Obstacle observations and aircraft telemetry"),
+        (name = "service", description = "Health, metrics and the API description"),
+        (name = "reactive", description = "Onboard LiDAR avoiders (offset algorithm, Bezier pilot, sectors); stateless"),
+    )
+)]
+pub struct ApiDoc;
+
+/// Every documented route, with its OpenAPI description.
+pub fn router() -> OpenApiRouter<AppState> {
+    OpenApiRouter::with_openapi(ApiDoc::openapi())
+        .merge(health::router())
+        .merge(missions::router())
+        .merge(telemetry::router())
+        .merge(operator::router())
+        .merge(reactive::router())
+    // jink:routes -- register each new API module above this line with `.merge(module::router())`
+}
+
+/// The OpenAPI document as the code describes it.
+pub fn openapi() -> utoipa::openapi::OpenApi {
+    router().into_openapi()
+}
+
+/// The OpenAPI document as pretty JSON with a trailing newline (what
+/// `jink openapi` prints and `openapi/openapi.json` holds).
+pub fn openapi_json() -> String {
+    let mut s = openapi()
+        .to_pretty_json()
+        .expect("the OpenAPI document serializes");
+    s.push('\n');
+    s
+}

@@ -1,0 +1,41 @@
+//! The `jink` command line: `serve` and the offline subcommands.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+pub mod openapi;
+pub mod reactive;
+pub mod serve;
+
+/// jink: ground-station planning service for fixed-wing UAVs on SUAS-style missions.
+#[derive(Debug, Parser)]
+#[command(name = "jink", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the HTTP service (SQLite file in the working directory by default).
+    Serve(serve::ServeArgs),
+    /// Print the OpenAPI 3.1 document (what `openapi/openapi.json` must hold).
+    Openapi,
+    /// Replay a recorded LiDAR scan file through the reactive avoider loop (offset -> pilot).
+    Reactive(reactive::ReactiveArgs),
+    // jink:subcommands -- add a variant here and its arm in `run` below
+}
+
+/// Parses the command line and runs it.
+pub fn run() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Serve(args) => serve::run(args),
+        Command::Openapi => openapi::run(),
+        Command::Reactive(args) => reactive::run(args),
+        // jink:dispatch
+    }
+}

@@ -1,0 +1,96 @@
+//! `jink serve`: configuration (flags with environment fallbacks) and start-up.
+
+use std::net::SocketAddr;
+use std::process::ExitCode;
+
+use clap::{Args, ValueEnum};
+use tracing_subscriber::EnvFilter;
+
+use crate::app::{AppState, Settings};
+use crate::store::Store;
+
+/// Log line format.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum LogFormat {
+    /// Human-readable lines.
+    Text,
+    /// One JSON object per line, for log collectors.
+    Json,
+}
+
+/// Flags of `jink serve`. Each has an environment-variable fallback.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// Address and port to listen on. Use port 0 for any free port; the bound address is
+    /// printed on stdout as `jink listening on http://ADDR`.
+    #[arg(long, env = "JINK_BIND", default_value = "127.0.0.1:8080")]
+    pub bind: SocketAddr,
+
+    /// Database URL: `sqlite://FILE` (created and migrated at start; the default is
+    /// `jink.sqlite` in the working directory) or `postgres://USER@HOST:PORT/DB` (for
+    /// several replicas sharing one database).
+    #[arg(
+        long,
+        env = "JINK_DATABASE_URL",
+        default_value = "sqlite://jink.sqlite"
+    )]
+    pub database_url: String,
+
+    /// Largest request body accepted, in bytes; larger bodies get 413.
+    #[arg(long, env = "JINK_MAX_BODY_BYTES", default_value_t = 2 * 1024 * 1024)]
+    pub max_body_bytes: usize,
+
+    /// Log format on stderr. Levels come from `RUST_LOG` (default `info`).
+    #[arg(long, env = "JINK_LOG_FORMAT", value_enum, default_value = "text")]
+    pub log_format: LogFormat,
+}
+
+/// Initialises logging to stderr (stdout carries only the "listening" line).
+pub fn init_logging(format: LogFormat) {
+    let filter =
+        EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info,sqlx=warn"));
+    let builder = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr);
+    let _ = match format {
+        LogFormat::Text => builder.try_init(),
+        LogFormat::Json => builder.json().try_init(),
+    };
+}
+
+/// Runs the service until a shutdown signal.
+pub fn run(args: ServeArgs) -> ExitCode {
+    init_logging(args.log_format);
+    let rt = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(rt) => rt,
+        Err(e) => {
+            eprintln!("jink: cannot start the async runtime: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    rt.block_on(async move {
+        let store = match Store::open(&args.database_url).await {
+            Ok(s) => s,
+            Err(e) => {
+                eprintln!("jink: {e}");
+                return ExitCode::FAILURE;
+            }
+        };
+        let state = AppState::new(
+            store,
+            Settings {
+                max_body_bytes: args.max_body_bytes,
+            },
+        );
+        match crate::app::serve(args.bind, state).await {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("jink: cannot serve on {}: {e}", args.bind);
+                ExitCode::FAILURE
+            }
+        }
+    })
+}

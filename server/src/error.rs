@@ -1,0 +1,243 @@
+//! The service's one error type and its RFC 9457 `application/problem+json` rendering.
+//!
+//! Internal details (database errors, panics) are logged, never returned. Validation
+//! failures carry one entry per offending field, each with a JSON pointer into the request
+//! body as the client sent it.
+
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+use utoipa::ToSchema;
+
+/// One invalid field of a request.
+#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
+pub struct FieldError {
+    /// RFC 6901 JSON pointer to the field in the request body (or `#/query/<name>` for a
+    /// query parameter), e.g. `/waypoints/3/lat`.
+    pub pointer: String,
+    /// What is wrong with it, for a person.
+    pub detail: String,
+}
+
+impl FieldError {
+    /// A field error at `pointer`.
+    pub fn new(pointer: impl Into<String>, detail: impl Into<String>) -> Self {
+        Self {
+            pointer: pointer.into(),
+            detail: detail.into(),
+        }
+    }
+}
+
+/// Every way a request can fail.
+#[derive(Debug, thiserror::Error)]
+pub enum ApiError {
+    /// The body parsed but some fields are invalid (422).
+    #[error("the request has {} invalid field(s)", .0.len())]
+    Validation(Vec<FieldError>),
+    /// The body or query could not be parsed (400); `pointer` names the field when known.
+    #[error("{detail}")]
+    BadRequest {
+        detail: String,
+        pointer: Option<String>,
+    },
+    /// The addressed resource does not exist (404).
+    #[error("{what} '{id}' does not exist")]
+    NotFound { what: &'static str, id: String },
+    /// The request conflicts with the current state (409).
+    #[error("{0}")]
+    Conflict(String),
+    /// The body's media type is not accepted here (415).
+    #[error("{0}")]
+    UnsupportedMediaType(String),
+    /// The body is larger than the configured limit (413).
+    #[error("{0}")]
+    PayloadTooLarge(String),
+    /// No route answers this path (404) or this method (405).
+    #[error("{detail}")]
+    Route { status: StatusCode, detail: String },
+    /// Something failed inside the service (500); the detail is logged, not returned.
+    #[error("internal error: {0}")]
+    Internal(String),
+}
+
+impl ApiError {
+    /// A single-field validation error.
+    pub fn field(pointer: impl Into<String>, detail: impl Into<String>) -> Self {
+        Self::Validation(vec![FieldError::new(pointer, detail)])
+    }
+
+    /// A 404 for `what` with id `id`.
+    pub fn not_found(what: &'static str, id: impl Into<String>) -> Self {
+        Self::NotFound {
+            what,
+            id: id.into(),
+        }
+    }
+
+    /// The HTTP status this error maps to.
+    pub fn status(&self) -> StatusCode {
+        match self {
+            Self::Validation(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            Self::BadRequest { .. } => StatusCode::BAD_REQUEST,
+            Self::NotFound { .. } => StatusCode::NOT_FOUND,
+            Self::Conflict(_) => StatusCode::CONFLICT,
+            Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
+            Self::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            Self::Route { status, .. } => *status,
+            Self::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+        }
+    }
+
+    fn kind(&self) -> (&'static str, &'static str) {
+        match self {
+            Self::Validation(_) => ("validation", "Invalid request content"),
+            Self::BadRequest { .. } => ("bad-request", "Malformed request"),
+            Self::NotFound { .. } => ("not-found", "Resource not found"),
+            Self::Conflict(_) => ("conflict", "Conflict with the current state"),
+            Self::UnsupportedMediaType(_) => ("unsupported-media-type", "Unsupported media type"),
+            Self::PayloadTooLarge(_) => ("payload-too-large", "Request body too large"),
+            Self::Route { status, .. } if *status == StatusCode::METHOD_NOT_ALLOWED => {
+                ("method-not-allowed", "Method not allowed")
+            }
+            Self::Route { .. } => ("no-such-route", "No such route"),
+            Self::Internal(_) => ("internal", "Internal server error"),
+        }
+    }
+
+    /// The problem document for this error.
+    pub fn problem(&self) -> Problem {
+        let (slug, title) = self.kind();
+        let status = self.status();
+        let (detail, errors) = match self {
+            Self::Validation(errs) => {
+                let first = errs.first().map(|e| format!("{}: {}", e.pointer, e.detail));
+                (first.unwrap_or_else(|| self.to_string()), errs.clone())
+            }
+            Self::BadRequest {
+                detail,
+                pointer: Some(p),
+            } => (
+                detail.clone(),
+                vec![FieldError::new(p.clone(), detail.clone())],
+            ),
+            Self::Internal(_) => (
+                "the service failed to handle the request; it has been logged".into(),
+                vec![],
+            ),
+            other => (other.to_string(), vec![]),
+        };
+        Problem {
+            type_: format!("urn:jink:problem:{slug}"),
+            title: title.to_string(),
+            status: status.as_u16(),
+            detail,
+            errors,
+        }
+    }
+}
+
+/// An RFC 9457 problem document, as every 4xx/5xx answer carries it.
+#[derive(Debug, Clone, Serialize, ToSchema)]
+pub struct Problem {
+    /// A URI naming the kind of problem, e.g. `urn:jink:problem:validation`.
+    #[serde(rename = "type")]
+    pub type_: String,
+    /// A short summary of the kind of problem.
+    pub title: String,
+    /// The HTTP status code.
+    pub status: u16,
+    /// What went wrong with this request; for validation failures, the first field's
+    /// pointer and message.
+    pub detail: String,
+    /// The invalid fields (validation and parse errors), each with a JSON pointer.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub errors: Vec<FieldError>,
+}
+
+/// The media type of problem documents.
+pub const PROBLEM_JSON: &str = "application/problem+json";
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        let status = self.status();
+        let problem = self.problem();
+        let body = serde_json::to_vec(&problem).unwrap_or_default();
+        let mut resp = (status, body).into_response();
+        resp.headers_mut()
+            .insert(header::CONTENT_TYPE, HeaderValue::from_static(PROBLEM_JSON));
+        // The logging middleware reads this to log internal failures with their cause.
+        if let Self::Internal(msg) = &self {
+            resp.extensions_mut().insert(InternalCause(msg.clone()));
+        }
+        resp
+    }
+}
+
+/// The hidden cause of a 500, carried to the logging middleware in the response's
+/// extensions.
+#[derive(Debug, Clone)]
+pub struct InternalCause(pub String);
+
+impl From<sqlx::Error> for ApiError {
+    fn from(e: sqlx::Error) -> Self {
+        Self::Internal(format!("database: {e}"))
+    }
+}
+
+impl From<tokio::task::JoinError> for ApiError {
+    fn from(e: tokio::task::JoinError) -> Self {
+        Self::Internal(format!("background task: {e}"))
+    }
+}
+
+/// Turns a `serde_path_to_error` path (`waypoints[2].lat`) into a JSON pointer
+/// (`/waypoints/2/lat`).
+pub fn serde_path_to_pointer(path: &serde_path_to_error::Path) -> String {
+    use serde_path_to_error::Segment;
+    let mut out = String::new();
+    for seg in path.iter() {
+        match seg {
+            Segment::Seq { index } => out.push_str(&format!("/{index}")),
+            Segment::Map { key } => out.push_str(&format!("/{}", escape_pointer(key))),
+            Segment::Enum { variant } => out.push_str(&format!("/{}", escape_pointer(variant))),
+            Segment::Unknown => out.push_str("/?"),
+        }
+    }
+    out
+}
+
+/// Escapes one JSON pointer reference token (RFC 6901: `~` -> `~0`, `/` -> `~1`).
+pub fn escape_pointer(token: &str) -> String {
+    token.replace('~', "~0").replace('/', "~1")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_validation_error_names_its_first_field_in_the_detail() {
+        let e = ApiError::Validation(vec![
+            FieldError::new("/waypoints/1/lat", "latitude 91 is outside [-90, 90]"),
+            FieldError::new("/fly_zones", "at least one fly zone is required"),
+        ]);
+        let p = e.problem();
+        assert_eq!(p.status, 422);
+        assert_eq!(p.type_, "urn:jink:problem:validation");
+        assert!(p.detail.starts_with("/waypoints/1/lat"));
+        assert_eq!(p.errors.len(), 2);
+    }
+
+    #[test]
+    fn internal_errors_do_not_leak_their_cause() {
+        let p = ApiError::Internal("database: disk I/O error at /secret/path".into()).problem();
+        assert_eq!(p.status, 500);
+        assert!(!p.detail.contains("secret"));
+    }
+
+    #[test]
+    fn pointer_tokens_are_escaped() {
+        assert_eq!(escape_pointer("a/b~c"), "a~1b~0c");
+    }
+}

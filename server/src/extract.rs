@@ -1,0 +1,159 @@
+//! Request extractors whose every rejection is a problem+json [`ApiError`], never a
+//! plain-text axum rejection.
+
+use axum::body::Bytes;
+use axum::extract::rejection::{BytesRejection, QueryRejection};
+use axum::extract::{FromRequest, FromRequestParts, Query, Request};
+use axum::http::{HeaderMap, StatusCode, header, request::Parts};
+use serde::de::DeserializeOwned;
+
+use crate::error::{ApiError, serde_path_to_pointer};
+
+/// The media type family of a request body.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MediaType {
+    /// `application/json` or any `+json` type.
+    Json,
+    /// `application/x-www-form-urlencoded`.
+    Form,
+    /// Anything else (named in the error).
+    Other,
+    /// No `Content-Type` header.
+    Missing,
+}
+
+/// Classifies the request's `Content-Type`.
+pub fn media_type(headers: &HeaderMap) -> MediaType {
+    let Some(v) = headers.get(header::CONTENT_TYPE) else {
+        return MediaType::Missing;
+    };
+    let Ok(v) = v.to_str() else {
+        return MediaType::Other;
+    };
+    let essence = v
+        .split(';')
+        .next()
+        .unwrap_or("")
+        .trim()
+        .to_ascii_lowercase();
+    if essence == "application/json" || essence.ends_with("+json") {
+        MediaType::Json
+    } else if essence == "application/x-www-form-urlencoded" {
+        MediaType::Form
+    } else {
+        MediaType::Other
+    }
+}
+
+/// The raw request body, with size-limit and read failures mapped to problem+json.
+pub struct Body(pub Bytes);
+
+impl<S: Send + Sync> FromRequest<S> for Body {
+    type Rejection = ApiError;
+
+    async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
+        Bytes::from_request(req, state)
+            .await
+            .map(Body)
+            .map_err(bytes_rejection)
+    }
+}
+
+fn bytes_rejection(r: BytesRejection) -> ApiError {
+    if r.status() == StatusCode::PAYLOAD_TOO_LARGE {
+        ApiError::PayloadTooLarge(format!(
+            "the request body is larger than this server accepts ({r}); send smaller batches or raise --max-body-bytes"
+        ))
+    } else {
+        ApiError::BadRequest {
+            detail: format!("could not read the request body: {r}"),
+            pointer: None,
+        }
+    }
+}
+
+/// Parses JSON bytes into `T`, naming the offending field of a type error.
+pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
+    let de = &mut serde_json::Deserializer::from_slice(bytes);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let pointer = serde_path_to_pointer(e.path());
+        let inner = e.into_inner();
+        if inner.is_syntax() || inner.is_eof() {
+            ApiError::BadRequest {
+                detail: format!("the body is not valid JSON: {inner}"),
+                pointer: None,
+            }
+        } else {
+            ApiError::BadRequest {
+                detail: format!(
+                    "{}: {inner}",
+                    if pointer.is_empty() { "/" } else { &pointer }
+                ),
+                pointer: Some(pointer),
+            }
+        }
+    })
+}
+
+/// Deserializes an already parsed JSON value into `T`, naming the offending field.
+pub fn from_value<T: DeserializeOwned>(value: serde_json::Value) -> Result<T, ApiError> {
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let pointer = serde_path_to_pointer(e.path());
+        let inner = e.into_inner();
+        ApiError::BadRequest {
+            detail: format!(
+                "{}: {inner}",
+                if pointer.is_empty() { "/" } else { &pointer }
+            ),
+            pointer: Some(pointer),
+        }
+    })
+}
+
+/// Insists on a JSON content type.
+pub fn require_json(headers: &HeaderMap) -> Result<(), ApiError> {
+    match media_type(headers) {
+        MediaType::Json => Ok(()),
+        MediaType::Missing => Err(ApiError::UnsupportedMediaType(
+            "this endpoint takes a JSON body: send Content-Type: application/json".into(),
+        )),
+        _ => Err(ApiError::UnsupportedMediaType(format!(
+            "this endpoint takes a JSON body, not {}",
+            headers
+                .get(header::CONTENT_TYPE)
+                .and_then(|v| v.to_str().ok())
+                .unwrap_or("?")
+        ))),
+    }
+}
+
+/// A JSON request body: checks the content type and names the field of any type error.
+/// Use it instead of `axum::Json` for every input.
+pub struct ApiJson<T>(pub T);
+
+impl<S: Send + Sync, T: DeserializeOwned> FromRequest<S> for ApiJson<T> {
+    type Rejection = ApiError;
+
+    async fn from_request(req: Request, state: &S) -> Result<Self, Self::Rejection> {
+        require_json(req.headers())?;
+        let Body(bytes) = Body::from_request(req, state).await?;
+        parse_json(&bytes).map(ApiJson)
+    }
+}
+
+/// A query string, with parse failures as problem+json naming the parameter.
+pub struct ApiQuery<T>(pub T);
+
+impl<S: Send + Sync, T: DeserializeOwned> FromRequestParts<S> for ApiQuery<T> {
+    type Rejection = ApiError;
+
+    async fn from_request_parts(parts: &mut Parts, state: &S) -> Result<Self, Self::Rejection> {
+        Query::<T>::from_request_parts(parts, state)
+            .await
+            .map(|Query(v)| ApiQuery(v))
+            .map_err(|e: QueryRejection| ApiError::BadRequest {
+                detail: format!("invalid query string: {}", e.body_text()),
+                pointer: None,
+            })
+    }
+}

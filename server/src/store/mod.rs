@@ -1,0 +1,456 @@
+//! Persistence behind one type, [`Store`], over SQLite or PostgreSQL (sqlx's `Any` driver,
+//! chosen by URL at run time; runtime-checked queries; one migrations folder per dialect).
+//!
+//! Durability: SQLite runs in WAL mode with `synchronous=NORMAL`, which keeps every
+//! committed transaction across a crash of the process (kill -9); only an operating-system
+//! crash or power loss can lose the last transactions. Writes to SQLite go through a
+//! single connection (SQLite has one writer anyway), so they queue in-process instead of
+//! spinning on `SQLITE_BUSY`.
+
+use std::str::FromStr;
+use std::time::Duration;
+
+use sqlx::any::{AnyConnectOptions, AnyPoolOptions};
+use sqlx::{AnyPool, AssertSqlSafe, Executor, Row};
+
+use crate::mission::Mission;
+use crate::time::{from_us, to_us};
+
+/// Which database a store talks to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Backend {
+    /// A SQLite file.
+    Sqlite,
+    /// A PostgreSQL server.
+    Postgres,
+}
+
+/// A moving-obstacle observation as stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObservationRow {
+    /// The obstacle's id within the mission.
+    pub obstacle_id: String,
+    /// Observation time, Unix seconds (microsecond resolution).
+    pub t_s: f64,
+    /// Latitude, degrees.
+    pub lat_deg: f64,
+    /// Longitude, degrees.
+    pub lon_deg: f64,
+    /// Altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// Sphere radius, metres.
+    pub radius_m: f64,
+}
+
+/// An aircraft telemetry sample as stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TelemetryRow {
+    /// Sample time, Unix seconds (microsecond resolution).
+    pub t_s: f64,
+    /// Latitude, degrees.
+    pub lat_deg: f64,
+    /// Longitude, degrees.
+    pub lon_deg: f64,
+    /// Altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// Heading, degrees true (0 = north, clockwise).
+    pub heading_deg: f64,
+    /// Ground speed, m/s, when reported.
+    pub speed_mps: Option<f64>,
+}
+
+/// How many rows of a batch were new and how many were already stored.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct InsertCounts {
+    /// Newly stored.
+    pub accepted: u64,
+    /// Already stored (same key); not stored again.
+    pub duplicate: u64,
+}
+
+/// The service's storage.
+#[derive(Clone, Debug)]
+pub struct Store {
+    backend: Backend,
+    read: AnyPool,
+    write: AnyPool,
+}
+
+/// Errors opening a store.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OpenError {
+    /// The URL is neither `sqlite:` nor `postgres:`; fix `--database-url`.
+    #[error("unsupported database URL '{0}': use sqlite://FILE or postgres://USER@HOST/DB")]
+    UnsupportedUrl(String),
+    /// Connecting failed; check the server is up and the URL is right.
+    #[error("cannot connect to the database: {0}")]
+    Connect(#[source] sqlx::Error),
+    /// A migration failed; the database may be from a newer jink.
+    #[error("database migration failed: {0}")]
+    Migrate(#[source] sqlx::migrate::MigrateError),
+}
+
+const SQLITE_PRAGMAS: &str = "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL; PRAGMA busy_timeout=10000; PRAGMA foreign_keys=ON;";
+
+impl Store {
+    /// Opens (creating a SQLite file if needed) and migrates the database at `url`.
+    ///
+    /// # Errors
+    /// [`OpenError`] when the URL is unsupported, the connection fails or migrating fails.
+    pub async fn open(url: &str) -> Result<Self, OpenError> {
+        sqlx::any::install_default_drivers();
+        let backend = if url.starts_with("sqlite:") {
+            Backend::Sqlite
+        } else if url.starts_with("postgres:") || url.starts_with("postgresql:") {
+            Backend::Postgres
+        } else {
+            return Err(OpenError::UnsupportedUrl(url.to_string()));
+        };
+        let (read, write) = match backend {
+            Backend::Sqlite => {
+                let url = if url.contains("mode=") {
+                    url.to_string()
+                } else if url.contains('?') {
+                    format!("{url}&mode=rwc")
+                } else {
+                    format!("{url}?mode=rwc")
+                };
+                let opts = AnyConnectOptions::from_str(&url).map_err(OpenError::Connect)?;
+                let pool = |n: u32| {
+                    AnyPoolOptions::new()
+                        .max_connections(n)
+                        .min_connections(1)
+                        .acquire_timeout(Duration::from_secs(30))
+                        .after_connect(|conn, _| {
+                            Box::pin(async move {
+                                conn.execute(SQLITE_PRAGMAS).await?;
+                                Ok(())
+                            })
+                        })
+                };
+                let write = pool(1)
+                    .connect_with(opts.clone())
+                    .await
+                    .map_err(OpenError::Connect)?;
+                let read = pool(4)
+                    .connect_with(opts)
+                    .await
+                    .map_err(OpenError::Connect)?;
+                (read, write)
+            }
+            Backend::Postgres => {
+                let pool = AnyPoolOptions::new()
+                    .max_connections(16)
+                    .acquire_timeout(Duration::from_secs(30))
+                    .connect(url)
+                    .await
+                    .map_err(OpenError::Connect)?;
+                (pool.clone(), pool)
+            }
+        };
+        let store = Self {
+            backend,
+            read,
+            write,
+        };
+        store.migrate().await?;
+        Ok(store)
+    }
+
+    async fn migrate(&self) -> Result<(), OpenError> {
+        match self.backend {
+            Backend::Sqlite => {
+                sqlx::migrate!("../migrations/sqlite")
+                    .run(&self.write)
+                    .await
+            }
+            Backend::Postgres => {
+                sqlx::migrate!("../migrations/postgres")
+                    .run(&self.write)
+                    .await
+            }
+        }
+        .map_err(OpenError::Migrate)
+    }
+
+    /// Which database this is.
+    pub fn backend(&self) -> Backend {
+        self.backend
+    }
+
+    /// The pool for writes (a single connection on SQLite).
+    pub fn write_pool(&self) -> &AnyPool {
+        &self.write
+    }
+
+    /// The pool for reads.
+    pub fn read_pool(&self) -> &AnyPool {
+        &self.read
+    }
+
+    /// Checks the database answers.
+    #[tracing::instrument(skip(self))]
+    pub async fn ping(&self) -> Result<(), sqlx::Error> {
+        sqlx::query("SELECT 1")
+            .execute(&self.read)
+            .await
+            .map(|_| ())
+    }
+
+    // ---- missions ----------------------------------------------------------------------
+
+    /// Stores missions, all or none.
+    #[tracing::instrument(skip_all, fields(n = missions.len()))]
+    pub async fn insert_missions(
+        &self,
+        missions: &[Mission],
+        created_at_s: f64,
+    ) -> Result<(), sqlx::Error> {
+        let mut tx = self.write.begin().await?;
+        for m in missions {
+            let body = serde_json::to_string(m).map_err(|e| sqlx::Error::Encode(Box::new(e)))?;
+            sqlx::query("INSERT INTO missions (id, created_at_us, source_format, body) VALUES ($1, $2, $3, $4)")
+                .bind(m.id.clone())
+                .bind(to_us(created_at_s))
+                .bind(m.source_format.as_str())
+                .bind(body)
+                .execute(&mut *tx)
+                .await?;
+        }
+        tx.commit().await
+    }
+
+    /// One mission, if it exists.
+    #[tracing::instrument(skip(self))]
+    pub async fn get_mission(&self, id: &str) -> Result<Option<Mission>, sqlx::Error> {
+        let row = sqlx::query("SELECT body FROM missions WHERE id = $1")
+            .bind(id.to_string())
+            .fetch_optional(&self.read)
+            .await?;
+        row.map(|r| decode_mission(&r.try_get::<String, _>(0)?))
+            .transpose()
+    }
+
+    /// True when the mission exists.
+    pub async fn mission_exists(&self, id: &str) -> Result<bool, sqlx::Error> {
+        let row = sqlx::query("SELECT 1 FROM missions WHERE id = $1")
+            .bind(id.to_string())
+            .fetch_optional(&self.read)
+            .await?;
+        Ok(row.is_some())
+    }
+
+    /// All missions, oldest first.
+    #[tracing::instrument(skip(self))]
+    pub async fn list_missions(&self) -> Result<Vec<Mission>, sqlx::Error> {
+        let rows = sqlx::query("SELECT body FROM missions ORDER BY created_at_us, id")
+            .fetch_all(&self.read)
+            .await?;
+        rows.iter()
+            .map(|r| decode_mission(&r.try_get::<String, _>(0)?))
+            .collect()
+    }
+
+    /// Deletes a mission and everything recorded for it. False when it did not exist.
+    #[tracing::instrument(skip(self))]
+    pub async fn delete_mission(&self, id: &str) -> Result<bool, sqlx::Error> {
+        let mut tx = self.write.begin().await?;
+        for table in CHILD_TABLES {
+            let sql = format!("DELETE FROM {table} WHERE mission_id = $1");
+            sqlx::query(AssertSqlSafe(sql))
+                .bind(id.to_string())
+                .execute(&mut *tx)
+                .await?;
+        }
+        let n = sqlx::query("DELETE FROM missions WHERE id = $1")
+            .bind(id.to_string())
+            .execute(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(n.rows_affected() > 0)
+    }
+
+    // ---- telemetry ---------------------------------------------------------------------
+
+    /// Stores obstacle observations; a row whose (mission, obstacle, time) is already
+    /// stored is a duplicate and is not stored again (the first one wins).
+    #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]
+    pub async fn insert_observations(
+        &self,
+        mission_id: &str,
+        rows: &[ObservationRow],
+        received_at_s: f64,
+    ) -> Result<InsertCounts, sqlx::Error> {
+        let mut accepted = 0;
+        // Keep statements to a bounded number of parameters (SQLite's default limit is
+        // 32766; PostgreSQL's 65535).
+        for chunk in rows.chunks(500) {
+            let sql = values_sql(
+                "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us) VALUES ",
+                8,
+                chunk.len(),
+                " ON CONFLICT DO NOTHING",
+            );
+            let mut q = sqlx::query(AssertSqlSafe(sql));
+            for r in chunk {
+                q = q
+                    .bind(mission_id.to_string())
+                    .bind(r.obstacle_id.clone())
+                    .bind(to_us(r.t_s))
+                    .bind(r.lat_deg)
+                    .bind(r.lon_deg)
+                    .bind(r.alt_msl_m)
+                    .bind(r.radius_m)
+                    .bind(to_us(received_at_s));
+            }
+            accepted += q.execute(&self.write).await?.rows_affected();
+        }
+        Ok(InsertCounts {
+            accepted,
+            duplicate: rows.len() as u64 - accepted,
+        })
+    }
+
+    /// A mission's observations ordered by time (then obstacle), optionally of one
+    /// obstacle and after a time.
+    #[tracing::instrument(skip(self))]
+    pub async fn list_observations(
+        &self,
+        mission_id: &str,
+        obstacle_id: Option<&str>,
+        after_s: Option<f64>,
+    ) -> Result<Vec<ObservationRow>, sqlx::Error> {
+        let rows = sqlx::query(
+            "SELECT obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m FROM obstacle_observations \
+             WHERE mission_id = $1 AND ($2 IS NULL OR obstacle_id = $2) AND t_us > $3 ORDER BY t_us, obstacle_id",
+        )
+        .bind(mission_id.to_string())
+        .bind(obstacle_id.map(str::to_string))
+        .bind(after_s.map_or(i64::MIN, to_us))
+        .fetch_all(&self.read)
+        .await?;
+        rows.iter()
+            .map(|r| {
+                Ok(ObservationRow {
+                    obstacle_id: r.try_get(0)?,
+                    t_s: from_us(r.try_get(1)?),
+                    lat_deg: r.try_get(2)?,
+                    lon_deg: r.try_get(3)?,
+                    alt_msl_m: r.try_get(4)?,
+                    radius_m: r.try_get(5)?,
+                })
+            })
+            .collect()
+    }
+
+    /// Stores aircraft telemetry; a sample at an already stored time is a duplicate.
+    #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]
+    pub async fn insert_telemetry(
+        &self,
+        mission_id: &str,
+        rows: &[TelemetryRow],
+        received_at_s: f64,
+    ) -> Result<InsertCounts, sqlx::Error> {
+        let mut accepted = 0;
+        for chunk in rows.chunks(500) {
+            let sql = values_sql(
+                "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us) VALUES ",
+                8,
+                chunk.len(),
+                " ON CONFLICT DO NOTHING",
+            );
+            let mut q = sqlx::query(AssertSqlSafe(sql));
+            for r in chunk {
+                q = q
+                    .bind(mission_id.to_string())
+                    .bind(to_us(r.t_s))
+                    .bind(r.lat_deg)
+                    .bind(r.lon_deg)
+                    .bind(r.alt_msl_m)
+                    .bind(r.heading_deg)
+                    .bind(r.speed_mps)
+                    .bind(to_us(received_at_s));
+            }
+            accepted += q.execute(&self.write).await?.rows_affected();
+        }
+        Ok(InsertCounts {
+            accepted,
+            duplicate: rows.len() as u64 - accepted,
+        })
+    }
+
+    /// A mission's aircraft telemetry ordered by time; `last` keeps only the newest n.
+    #[tracing::instrument(skip(self))]
+    pub async fn list_telemetry(
+        &self,
+        mission_id: &str,
+        last: Option<u32>,
+    ) -> Result<Vec<TelemetryRow>, sqlx::Error> {
+        let rows = sqlx::query(
+            "SELECT t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps FROM aircraft_telemetry \
+             WHERE mission_id = $1 ORDER BY t_us DESC LIMIT $2",
+        )
+        .bind(mission_id.to_string())
+        .bind(i64::from(last.unwrap_or(u32::MAX)))
+        .fetch_all(&self.read)
+        .await?;
+        let mut out: Vec<TelemetryRow> = rows
+            .iter()
+            .map(|r| {
+                Ok(TelemetryRow {
+                    t_s: from_us(r.try_get(0)?),
+                    lat_deg: r.try_get(1)?,
+                    lon_deg: r.try_get(2)?,
+                    alt_msl_m: r.try_get(3)?,
+                    heading_deg: r.try_get(4)?,
+                    speed_mps: r.try_get(5)?,
+                })
+            })
+            .collect::<Result<_, sqlx::Error>>()?;
+        out.reverse();
+        Ok(out)
+    }
+}
+
+/// Tables whose rows belong to a mission (deleted with it). Later migrations add theirs.
+pub const CHILD_TABLES: &[&str] = &["obstacle_observations", "aircraft_telemetry"];
+
+fn decode_mission(body: &str) -> Result<Mission, sqlx::Error> {
+    serde_json::from_str(body).map_err(|e| sqlx::Error::Decode(Box::new(e)))
+}
+
+/// `INSERT ... VALUES ($1,..,$k), ($k+1,..) <tail>` for `rows` rows of `cols` columns.
+/// Only placeholders are generated: no value is ever spliced into the SQL.
+fn values_sql(head: &str, cols: usize, rows: usize, tail: &str) -> String {
+    let mut s = String::with_capacity(head.len() + rows * cols * 5 + tail.len());
+    s.push_str(head);
+    for r in 0..rows {
+        if r > 0 {
+            s.push(',');
+        }
+        s.push('(');
+        for c in 0..cols {
+            if c > 0 {
+                s.push(',');
+            }
+            s.push_str(&format!("${}", r * cols + c + 1));
+        }
+        s.push(')');
+    }
+    s.push_str(tail);
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn values_sql_numbers_placeholders_row_major() {
+        assert_eq!(
+            values_sql("INSERT INTO t VALUES ", 2, 2, ";"),
+            "INSERT INTO t VALUES ($1,$2),($3,$4);"
+        );
+    }
+}

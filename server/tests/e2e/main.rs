@@ -1,0 +1,11 @@
+//! End-to-end tests: the real `jink` binary on a free port, over HTTP, against SQLite and
+//! PostgreSQL (`name::sqlite`, `name::postgres`).
+
+mod support;
+
+mod durability;
+mod errors;
+mod missions;
+mod reactive;
+mod service;
+mod telemetry;

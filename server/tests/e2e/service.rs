@@ -1,0 +1,119 @@
+//! Health, metrics, the OpenAPI document and the offline docs page, on the running binary.
+
+use serde_json::Value;
+
+use crate::both_stores;
+use crate::support::{App, Db, fixture};
+
+both_stores!(health_reports_the_database);
+
+async fn health_reports_the_database(app: App) {
+    let h = app.get_json("/healthz").await;
+    assert_eq!(h["status"], "ok");
+    let expected = if app.db_url.starts_with("sqlite") {
+        "sqlite"
+    } else {
+        "postgres"
+    };
+    assert_eq!(h["database"], expected);
+}
+
+#[tokio::test]
+async fn metrics_count_requests_per_route_in_prometheus_text() {
+    let app = App::spawn(Db::Sqlite).await.unwrap();
+    let id = app.create_mission(&fixture("mission_2019.json")).await;
+    app.get_json(&format!("/api/v1/missions/{id}")).await;
+    app.get_json(&format!("/api/v1/missions/{id}")).await;
+    let r = app.get("/metrics").await;
+    assert_eq!(r.status(), 200);
+    assert!(
+        r.headers()["content-type"]
+            .to_str()
+            .unwrap()
+            .starts_with("text/plain")
+    );
+    let text = r.text().await.unwrap();
+    assert!(
+        text.contains("# TYPE jink_http_requests_total counter"),
+        "{text}"
+    );
+    assert!(
+        text.contains("jink_http_requests_total{route=\"/api/v1/missions/{id}\",method=\"GET\",status=\"200\"} 2"),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "jink_http_request_duration_seconds_count{route=\"/api/v1/missions\",method=\"POST\"} 1"
+        ),
+        "{text}"
+    );
+}
+
+#[tokio::test]
+async fn every_documented_operation_is_routed_and_the_spec_is_served() {
+    let app = App::spawn(Db::Sqlite).await.unwrap();
+    let spec: Value = app.get_json("/openapi.json").await;
+    assert_eq!(spec["openapi"], "3.1.0");
+    let paths = spec["paths"].as_object().unwrap();
+    assert!(paths.len() >= 8, "{}", paths.len());
+    for (path, ops) in paths {
+        let concrete = path
+            .replace("{id}", "no-such-mission")
+            .replace("{plan_id}", "no-such-plan");
+        for method in ops
+            .as_object()
+            .unwrap()
+            .keys()
+            .filter(|m| ["get", "post", "put", "delete", "patch"].contains(&m.as_str()))
+        {
+            let m = reqwest::Method::from_bytes(method.to_uppercase().as_bytes()).unwrap();
+            let r = app
+                .client
+                .request(m, app.url(&concrete))
+                .header("content-type", "application/json")
+                .body("{}")
+                .send()
+                .await
+                .unwrap();
+            let status = r.status().as_u16();
+            let body = r.text().await.unwrap();
+            assert!(
+                !body.contains("urn:jink:problem:no-such-route")
+                    && !body.contains("urn:jink:problem:method-not-allowed"),
+                "{method} {path} is documented but not routed: {status} {body}"
+            );
+            assert!(
+                status < 500,
+                "{method} {path} answered {status} to a bad request: {body}"
+            );
+        }
+    }
+}
+
+#[tokio::test]
+async fn the_docs_page_needs_no_internet() {
+    let app = App::spawn(Db::Sqlite).await.unwrap();
+    let r = app.get("/docs/").await;
+    assert_eq!(r.status(), 200);
+    let html = r.text().await.unwrap();
+    assert!(html.contains("swagger"), "{html}");
+    // Every script and stylesheet is served by jink itself.
+    for attr in ["src=\"http", "href=\"http", "src='http", "href='http"] {
+        assert!(
+            !html.contains(attr),
+            "the docs page loads an external asset: {html}"
+        );
+    }
+    let init = app
+        .get("/docs/swagger-initializer.js")
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(init.contains("/docs/openapi.json"), "{init}");
+    let bundle = app.get("/docs/swagger-ui-bundle.js").await;
+    assert_eq!(bundle.status(), 200);
+    assert!(bundle.text().await.unwrap().len() > 100_000);
+    let landing = app.get("/").await.text().await.unwrap();
+    assert!(landing.contains("/docs/"));
+}

@@ -1,0 +1,286 @@
+//! Starts the real `jink` binary on a free port against a fresh database and talks HTTP
+//! to it.
+
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::time::Duration;
+
+use serde_json::Value;
+
+/// Which store a test runs against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Db {
+    Sqlite,
+    Postgres,
+}
+
+/// The PostgreSQL server the suite uses (trust auth). Override with `JINK_TEST_POSTGRES_URL`.
+pub fn postgres_admin_url() -> String {
+    std::env::var("JINK_TEST_POSTGRES_URL")
+        .unwrap_or_else(|_| "postgres://postgres@127.0.0.1:5432/test".into())
+}
+
+/// A running jink and the database it owns.
+pub struct App {
+    pub base: String,
+    pub client: reqwest::Client,
+    pub db_url: String,
+    child: Option<Child>,
+    pg_db: Option<String>,
+    dir: tempfile::TempDir,
+    extra_args: Vec<String>,
+}
+
+pub fn fixture(name: &str) -> Value {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/fixtures/interop")
+        .join(name);
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap()
+}
+
+pub fn fixture_text(name: &str) -> String {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/fixtures/interop")
+        .join(name);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+impl App {
+    /// Starts jink on a fresh database; `None` (with a printed reason) when the
+    /// PostgreSQL server is not reachable and the run does not require it
+    /// (`JINK_REQUIRE_POSTGRES=1` turns the skip into a failure, as CI sets it).
+    pub async fn spawn(db: Db) -> Option<App> {
+        Self::spawn_with(db, &[]).await
+    }
+
+    pub async fn spawn_with(db: Db, extra_args: &[&str]) -> Option<App> {
+        let dir = tempfile::tempdir().unwrap();
+        let (db_url, pg_db) = match db {
+            Db::Sqlite => (
+                format!("sqlite://{}", dir.path().join("jink.sqlite").display()),
+                None,
+            ),
+            Db::Postgres => {
+                let name = format!("jink_e2e_{:016x}", rand::random::<u64>());
+                if let Err(e) = admin_sql(&format!("CREATE DATABASE {name}")).await {
+                    if std::env::var("JINK_REQUIRE_POSTGRES").is_ok_and(|v| v == "1") {
+                        panic!(
+                            "PostgreSQL is required (JINK_REQUIRE_POSTGRES=1) but {} is not usable: {e}",
+                            postgres_admin_url()
+                        );
+                    }
+                    eprintln!(
+                        "SKIPPED: PostgreSQL store test: no server at {} ({e})",
+                        postgres_admin_url()
+                    );
+                    return None;
+                }
+                let mut url = postgres_admin_url();
+                let cut = url.rfind('/').unwrap();
+                url.truncate(cut + 1);
+                url.push_str(&name);
+                (url, Some(name))
+            }
+        };
+        let mut app = App {
+            base: String::new(),
+            client: reqwest::Client::builder()
+                .timeout(Duration::from_secs(60))
+                .build()
+                .unwrap(),
+            db_url,
+            child: None,
+            pg_db,
+            dir,
+            extra_args: extra_args.iter().map(|s| s.to_string()).collect(),
+        };
+        app.start();
+        Some(app)
+    }
+
+    fn start(&mut self) {
+        let log = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(self.dir.path().join("jink.log"))
+            .unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
+            .arg("serve")
+            .args(["--bind", "127.0.0.1:0", "--database-url", &self.db_url])
+            .args(&self.extra_args)
+            .env("RUST_LOG", "warn")
+            .current_dir(self.dir.path())
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::from(log))
+            .spawn()
+            .expect("start jink");
+        let stdout = child.stdout.take().unwrap();
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if let Some(addr) = line.strip_prefix("jink listening on ") {
+                    let _ = tx.send(addr.to_string());
+                }
+            }
+        });
+        match rx.recv_timeout(Duration::from_secs(60)) {
+            Ok(addr) => self.base = addr,
+            Err(_) => {
+                let _ = child.kill();
+                let log =
+                    std::fs::read_to_string(self.dir.path().join("jink.log")).unwrap_or_default();
+                panic!("jink did not start within 60 s; its log:\n{log}");
+            }
+        }
+        self.child = Some(child);
+    }
+
+    /// Kills the process with SIGKILL (no shutdown handling at all) and starts a new one
+    /// on the same database.
+    pub fn kill9_and_restart(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            c.kill().unwrap(); // SIGKILL on Unix
+            c.wait().unwrap();
+        }
+        self.start();
+    }
+
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{path}", self.base)
+    }
+
+    pub async fn post_json(&self, path: &str, body: &Value) -> reqwest::Response {
+        self.client
+            .post(self.url(path))
+            .json(body)
+            .send()
+            .await
+            .unwrap()
+    }
+
+    pub async fn post_raw(
+        &self,
+        path: &str,
+        content_type: &str,
+        body: impl Into<reqwest::Body>,
+    ) -> reqwest::Response {
+        self.client
+            .post(self.url(path))
+            .header("content-type", content_type)
+            .body(body)
+            .send()
+            .await
+            .unwrap()
+    }
+
+    pub async fn get(&self, path: &str) -> reqwest::Response {
+        self.client.get(self.url(path)).send().await.unwrap()
+    }
+
+    pub async fn get_json(&self, path: &str) -> Value {
+        let r = self.get(path).await;
+        assert_eq!(r.status(), 200, "GET {path}");
+        r.json().await.unwrap()
+    }
+
+    /// Uploads a mission and returns its id.
+    pub async fn create_mission(&self, body: &Value) -> String {
+        let r = self.post_json("/api/v1/missions", body).await;
+        let status = r.status();
+        let v: Value = r.json().await.unwrap();
+        assert_eq!(status, 201, "{v}");
+        v["id"].as_str().unwrap().to_string()
+    }
+}
+
+impl Drop for App {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+        if let Some(name) = self.pg_db.take() {
+            // Drop runs inside the test's runtime: use a thread with its own runtime.
+            let _ = std::thread::spawn(move || {
+                let rt = tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .build()
+                    .unwrap();
+                let _ = rt.block_on(admin_sql(&format!(
+                    "DROP DATABASE IF EXISTS {name} WITH (FORCE)"
+                )));
+            })
+            .join();
+        }
+    }
+}
+
+async fn admin_sql(sql: &str) -> Result<(), String> {
+    use sqlx::Connection;
+    let fut = async {
+        let mut c = sqlx::PgConnection::connect(&postgres_admin_url())
+            .await
+            .map_err(|e| e.to_string())?;
+        sqlx::raw_sql(sqlx::AssertSqlSafe(sql.to_string()))
+            .execute(&mut c)
+            .await
+            .map_err(|e| e.to_string())?;
+        c.close().await.map_err(|e| e.to_string())
+    };
+    tokio::time::timeout(Duration::from_secs(10), fut)
+        .await
+        .map_err(|_| "timed out".to_string())?
+}
+
+/// A problem+json answer: checks the media type and returns the document.
+pub async fn problem(r: reqwest::Response, status: u16) -> Value {
+    assert_eq!(r.status().as_u16(), status, "status");
+    let ct = r
+        .headers()
+        .get("content-type")
+        .and_then(|v| v.to_str().ok())
+        .unwrap_or("")
+        .to_string();
+    let body = r.text().await.unwrap();
+    assert_eq!(ct, "application/problem+json", "content type of {body}");
+    let v: Value = serde_json::from_str(&body).unwrap();
+    assert_eq!(v["status"].as_u64(), Some(u64::from(status)), "{v}");
+    v
+}
+
+/// The pointers named by a problem document.
+pub fn pointers(p: &Value) -> Vec<String> {
+    p["errors"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|e| e["pointer"].as_str().map(String::from))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Runs each named async test body `async fn name(app: App)` against SQLite and
+/// PostgreSQL, as `name::sqlite` and `name::postgres`.
+#[macro_export]
+macro_rules! both_stores {
+    ($($name:ident),* $(,)?) => {$(
+        mod $name {
+            #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+            async fn sqlite() {
+                if let Some(app) = $crate::support::App::spawn($crate::support::Db::Sqlite).await {
+                    super::$name(app).await;
+                }
+            }
+            #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+            async fn postgres() {
+                if let Some(app) = $crate::support::App::spawn($crate::support::Db::Postgres).await {
+                    super::$name(app).await;
+                }
+            }
+        }
+    )*};
+}
