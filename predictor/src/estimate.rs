@@ -88,7 +88,7 @@ pub struct TurnSampler {
 impl TurnSampler {
     /// Refreshes the samples after an observation was inserted at index `inserted` of the
     /// track. Samples whose window the insertion changed are recomputed; others are kept.
-    /// Returns the number of samples (re)computed.
+    /// Returns the number of samples removed plus the number (re)computed (0: unchanged).
     pub fn update(&mut self, track: &Track, inserted: usize, cfg: &EstimatorConfig) -> usize {
         let obs = track.observations();
         let (Some(first), Some(last)) = (obs.first(), obs.last()) else {
@@ -108,7 +108,9 @@ impl TurnSampler {
         } else {
             i64::MIN
         };
+        let before = self.samples.len();
         self.samples.retain(|s| s.k < k_bad && s.k >= k_start);
+        let removed = before - self.samples.len();
         let mut k = self.next_k.map_or(k_start, |n| n.min(k_bad)).max(k_start);
         let mut n = 0;
         while (k + 1) as f64 * dt <= last.t_s {
@@ -119,7 +121,7 @@ impl TurnSampler {
             k += 1;
         }
         self.next_k = Some(k);
-        n
+        n + removed
     }
 
     /// All samples, oldest first.
@@ -208,7 +210,7 @@ pub struct Estimates {
     /// Tightest demonstrated turn radius (low quantile, floored), metres; `None` when no
     /// turn has been demonstrated.
     pub min_turn_radius_m: Option<f64>,
-    /// Turn-rate capability used by the models, degrees per second.
+    /// Turn-rate capability used by the models, degrees per second (0 when stationary).
     pub turn_rate_max_dps: f64,
     /// Most recent signed turn-rate sample, degrees per second, counter-clockwise (left)
     /// positive.
@@ -217,8 +219,56 @@ pub struct Estimates {
     pub mean_turn_rate_dps: Option<f64>,
 }
 
-/// Computes the estimates from the track and its turn samples. `None` for an empty track.
-pub fn estimate(track: &Track, sampler: &TurnSampler, cfg: &EstimatorConfig) -> Option<Estimates> {
+/// What the turn samples say about an obstacle's turning (recomputed only when the
+/// samples change).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TurnSummary {
+    /// Tightest demonstrated turn radius (low quantile, floored), metres; `None` when no
+    /// turn has been demonstrated.
+    pub min_turn_radius_m: Option<f64>,
+    /// Turn-rate capability: mean sample speed over the tightest radius, divided by
+    /// `1 - turn_radius_quantile` (see the source), at least the floor, rad/s.
+    pub w_max_radps: f64,
+    /// Most recent turn rate, rad/s.
+    pub last_omega_radps: Option<f64>,
+    /// Mean turn rate over the window, rad/s.
+    pub mean_omega_radps: Option<f64>,
+}
+
+impl TurnSummary {
+    /// Summarizes a window of turn samples.
+    pub fn from_window(window: &[TurnSample], cfg: &EstimatorConfig) -> Self {
+        let floor = cfg.turn_rate_floor_dps.to_radians();
+        if window.is_empty() {
+            return Self {
+                w_max_radps: floor,
+                ..Self::default()
+            };
+        }
+        let mut radii: Vec<f64> = window.iter().map(|s| s.radius_m).collect();
+        radii.sort_by(f64::total_cmp);
+        let idx = ((radii.len() - 1) as f64 * cfg.turn_radius_quantile).round() as usize;
+        let r = radii[idx];
+        let min_turn_radius_m = r.is_finite().then(|| r.max(cfg.turn_radius_floor_m));
+        let n = window.len() as f64;
+        let speed = window.iter().map(|s| s.speed_mps).sum::<f64>() / n;
+        // The q-quantile of the radii is the (1 - q)-quantile of |omega|; under the uniform
+        // turning the Random stage assumes, that is (1 - q) of the capability, so divide it
+        // back out (otherwise the Random model is systematically too narrow).
+        let w_max_radps = min_turn_radius_m.map_or(floor, |r| {
+            (speed / r / (1.0 - cfg.turn_radius_quantile)).max(floor)
+        });
+        Self {
+            min_turn_radius_m,
+            w_max_radps,
+            last_omega_radps: window.last().map(|s| s.omega_radps),
+            mean_omega_radps: Some(window.iter().map(|s| s.omega_radps).sum::<f64>() / n),
+        }
+    }
+}
+
+/// Computes the estimates from the track and its turn summary. `None` for an empty track.
+pub fn estimate(track: &Track, turns: &TurnSummary, cfg: &EstimatorConfig) -> Option<Estimates> {
     let last = *track.last()?;
     let obs = track.observations();
     let from = obs.partition_point(|o| o.t_s < last.t_s - cfg.velocity_window_s);
@@ -238,25 +288,15 @@ pub fn estimate(track: &Track, sampler: &TurnSampler, cfg: &EstimatorConfig) -> 
                 .rem_euclid(360.0),
         );
     }
-    let window = sampler.window(cfg);
-    let mut radii: Vec<f64> = window.iter().map(|s| s.radius_m).collect();
-    let min_turn_radius_m = if radii.is_empty() {
-        None
-    } else {
-        radii.sort_by(f64::total_cmp);
-        let idx = ((radii.len() - 1) as f64 * cfg.turn_radius_quantile).round() as usize;
-        let r = radii[idx];
-        r.is_finite().then(|| r.max(cfg.turn_radius_floor_m))
-    };
-    let floor = cfg.turn_rate_floor_dps.to_radians();
-    let turn_rate_max = match min_turn_radius_m {
-        Some(r) if speed_mps > 0.0 => (speed_mps / r).max(floor),
-        _ => floor,
-    };
-    let turn_rate_dps = window.last().map(|s| s.omega_radps.to_degrees());
-    let mean_turn_rate_dps = (!window.is_empty())
-        .then(|| window.iter().map(|s| s.omega_radps).sum::<f64>() / window.len() as f64)
-        .map(f64::to_degrees);
+    let TurnSummary {
+        min_turn_radius_m,
+        w_max_radps,
+        last_omega_radps,
+        mean_omega_radps,
+    } = *turns;
+    let turn_rate_dps = last_omega_radps.map(f64::to_degrees);
+    let mean_turn_rate_dps = mean_omega_radps.map(f64::to_degrees);
+    let turn_rate_max = if speed_mps > 0.0 { w_max_radps } else { 0.0 };
     Some(Estimates {
         t_s: last.t_s,
         position_m,
@@ -336,7 +376,7 @@ mod tests {
             assert!((s.omega_radps - 0.1).abs() < 2e-3, "{s:?}");
             assert!((s.radius_m - 100.0).abs() < 0.5, "{s:?}");
         }
-        let e = estimate(&tr, &ts, &cfg).unwrap();
+        let e = estimate(&tr, &TurnSummary::from_window(ts.window(&cfg), &cfg), &cfg).unwrap();
         assert!((e.speed_mps - 10.0).abs() < 0.05);
         // At t = 10 the angle is 1 rad; velocity direction (math) 1 + pi/2 rad.
         let math = 1.0 + std::f64::consts::FRAC_PI_2;

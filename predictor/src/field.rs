@@ -22,7 +22,10 @@ pub trait RiskField: Send + Sync {
         let mut worst: f64 = 0.0;
         for i in 0..=steps {
             let f = f64::from(i) / f64::from(steps);
-            let p = [a_m[0] + (b_m[0] - a_m[0]) * f, a_m[1] + (b_m[1] - a_m[1]) * f];
+            let p = [
+                a_m[0] + (b_m[0] - a_m[0]) * f,
+                a_m[1] + (b_m[1] - a_m[1]) * f,
+            ];
             worst = worst.max(self.risk(p, t0_s + (t1_s - t0_s) * f));
         }
         worst

@@ -20,7 +20,7 @@
 //! assert_eq!(map.risk([-150.0, 150.0], 3.9), 0.0);
 //! ```
 
-use crate::estimate::{self, Estimates, EstimatorConfig, TurnSampler};
+use crate::estimate::{self, Estimates, EstimatorConfig, TurnSampler, TurnSummary};
 use crate::field::RiskField;
 use crate::motion::MotionModel;
 use crate::risk_map::{ObstacleInput, RiskMap, RiskMapConfig};
@@ -115,6 +115,7 @@ struct Obstacle {
     sampler: TurnSampler,
     stages: Characterizer,
     est: Estimates,
+    turns: TurnSummary,
     hist: TurnHistogram,
     model: MotionModel,
 }
@@ -174,8 +175,8 @@ impl Predictor {
         };
         let (out, idx) = ob.track.insert(obs, flag, cfg.position_noise_m);
         if let Some(idx) = idx {
-            ob.sampler.update(&ob.track, idx, &cfg.estimator);
-            refresh(ob, cfg);
+            let changed = ob.sampler.update(&ob.track, idx, &cfg.estimator);
+            refresh(ob, cfg, changed > 0);
             self.dirty.insert(id.to_owned());
         }
         out
@@ -331,9 +332,9 @@ fn input<'a>(id: &'a str, o: &'a Obstacle) -> ObstacleInput<'a> {
 }
 
 fn new_obstacle(track: Track, sampler: TurnSampler, cfg: &PredictorConfig) -> Obstacle {
-    let est =
-        estimate::estimate(&track, &sampler, &cfg.estimator).expect("track has an observation");
-    let hist = TurnHistogram::build(&[], est.turn_rate_max_dps.to_radians(), &cfg.stages);
+    let turns = TurnSummary::from_window(&[], &cfg.estimator);
+    let est = estimate::estimate(&track, &turns, &cfg.estimator).expect("track has an observation");
+    let hist = TurnHistogram::build(&[], turns.w_max_radps, &cfg.stages);
     let model = MotionModel::new(
         Stage::NoFly,
         &est,
@@ -347,22 +348,28 @@ fn new_obstacle(track: Track, sampler: TurnSampler, cfg: &PredictorConfig) -> Ob
         sampler,
         stages: Characterizer::default(),
         est,
+        turns,
         hist,
         model,
     };
-    refresh(&mut ob, cfg);
+    refresh(&mut ob, cfg, true);
     ob
 }
 
-fn refresh(ob: &mut Obstacle, cfg: &PredictorConfig) {
-    let Some(est) = estimate::estimate(&ob.track, &ob.sampler, &cfg.estimator) else {
+/// Refreshes the estimates (every observation) and, when the turn samples changed, the
+/// turn summary, histograms and stage tests.
+fn refresh(ob: &mut Obstacle, cfg: &PredictorConfig, samples_changed: bool) {
+    if samples_changed {
+        let window = ob.sampler.window(&cfg.estimator);
+        ob.turns = TurnSummary::from_window(window, &cfg.estimator);
+        ob.hist = TurnHistogram::build(window, ob.turns.w_max_radps, &cfg.stages);
+    }
+    let Some(est) = estimate::estimate(&ob.track, &ob.turns, &cfg.estimator) else {
         return;
     };
-    let window = ob.sampler.window(&cfg.estimator);
-    ob.hist = TurnHistogram::build(window, est.turn_rate_max_dps.to_radians(), &cfg.stages);
     let obs = ob.track.observations();
     let span = obs.last().map_or(0.0, |l| l.t_s) - obs.first().map_or(0.0, |f| f.t_s);
-    if cfg.forced_stage.is_none() {
+    if cfg.forced_stage.is_none() && (samples_changed || ob.stages.stage() == Stage::NoFly) {
         ob.stages.evaluate(
             est.t_s,
             obs.len(),

@@ -1,0 +1,175 @@
+//! Invariants of the risk map (proptest) and calibration of the stage models (seeded
+//! statistical tests with stated tolerances).
+
+mod common;
+
+use common::{Behaviour, Generator};
+use predictor::{Predictor, PredictorConfig, RiskField, RiskMapConfig, Stage};
+use proptest::prelude::*;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+fn behaviour(i: u8, w: f64) -> Behaviour {
+    match i % 5 {
+        0 => Behaviour::Straight,
+        1 => Behaviour::Uniform { w },
+        2 => Behaviour::Biased { w },
+        3 => Behaviour::Zigzag { w },
+        _ => Behaviour::Stationary,
+    }
+}
+
+fn fed(
+    b: Behaviour,
+    speed: f64,
+    radius: f64,
+    seed: u64,
+    secs: f64,
+    cfg: PredictorConfig,
+) -> (Predictor, Generator) {
+    let mut p = Predictor::new(cfg);
+    let mut g = Generator::new(b, speed, seed);
+    g.radius_m = radius;
+    for o in g.track(secs) {
+        p.observe("0", o);
+    }
+    (p, g)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Each slice of an obstacle holds exactly its stencil's area of probability (every
+    /// particle carries 1/N and splats one stencil; a cell sums at most N/N = 1), up to f32
+    /// rounding and the 1e-6 clamp: relative 1e-3. The stencil approximates the disc
+    /// pi (r + buffer)^2 to within the splat error of a 5 m grid (25% for the smallest
+    /// radius, less for larger ones).
+    #[test]
+    fn probability_mass_per_slice_is_conserved(
+        bi in 0u8..5, seed in 0u64..1000, speed in 3.0f64..20.0, radius in 9.0f64..40.0,
+        stage in prop_oneof![Just(None), Just(Some(Stage::Random)), Just(Some(Stage::Advanced)), Just(Some(Stage::Memory))],
+    ) {
+        let cfg = PredictorConfig::default().forced_stage(stage);
+        let (mut p, _) = fed(behaviour(bi, 0.25), speed, radius, seed, 40.0, cfg);
+        // The grid is centred on the obstacle and wider than it can fly in the horizon.
+        let c = p.obstacle("0").unwrap().estimates.position_m;
+        let mc = RiskMapConfig::default().bounds([c[0] - 700.0, c[1] - 700.0], [c[0] + 700.0, c[1] + 700.0]).time(1.0, 20.0).particles(64);
+        let mut map = p.build_risk_map(&mc, &[], 40.0).unwrap();
+        let area = map.stencil_area_m2(radius);
+        let disc = std::f64::consts::PI * (radius + mc.buffer_m).powi(2);
+        prop_assert!((area - disc).abs() / disc < 0.25, "stencil {area} vs disc {disc}");
+        for k in 0..map.slices() {
+            let m = map.obstacle_mass_m2("0", k).unwrap();
+            prop_assert!((m - area).abs() / area < 1e-3, "slice {k}: {m} vs {area}");
+        }
+    }
+
+    /// Risk is a probability everywhere, in and out of the grid and the horizon; the
+    /// segment bound is at least the risk at the segment's sampled points.
+    #[test]
+    fn risk_is_a_probability_and_the_segment_bound_is_conservative(
+        seeds in proptest::collection::vec(0u64..1000, 1..4),
+        bis in proptest::collection::vec(0u8..5, 3),
+        pts in proptest::collection::vec((-500.0f64..500.0, -500.0f64..500.0, 35.0f64..75.0), 20),
+    ) {
+        let mut p = Predictor::new(PredictorConfig::default());
+        for (i, s) in seeds.iter().enumerate() {
+            let mut g = Generator::new(behaviour(bis[i % 3], 0.25), 12.0, *s);
+            for mut o in g.track(40.0) {
+                o.p_m = [o.p_m[0] * 0.3 + 100.0 * i as f64, o.p_m[1] * 0.3];
+                p.observe(&i.to_string(), o);
+            }
+        }
+        p.observe("new", predictor::Observation { t_s: 40.0, p_m: [-200.0, 200.0], alt_m: 0.0, radius_m: 20.0 });
+        let mc = RiskMapConfig::default().bounds([-400.0, -400.0], [400.0, 400.0]).time(1.0, 20.0).particles(64);
+        let map = p.risk_map(&mc, &[], 40.0);
+        for w in pts.windows(2) {
+            let (a, b) = ([w[0].0, w[0].1], [w[1].0, w[1].1]);
+            let r = map.risk(a, w[0].2);
+            prop_assert!((0.0..=1.0).contains(&r));
+            let (t0, t1) = (w[0].2.min(w[1].2), w[0].2.max(w[1].2));
+            let bound = map.segment_risk_bound(a, b, t0, t1);
+            for i in 0..=32 {
+                let f = f64::from(i) / 32.0;
+                let q = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
+                for t in [t0, t1, 0.5 * (t0 + t1)] {
+                    prop_assert!(map.risk(q, t) <= bound + 1e-9, "risk {} > bound {bound}", map.risk(q, t));
+                }
+            }
+        }
+    }
+}
+
+/// Fraction of trials in which the true position `horizon_s` after the last observation
+/// falls in the model's 95% region: the disc around the mean of 1000 sampled futures whose
+/// radius is the 95th percentile of their distances to that mean.
+fn coverage(stage: Stage, b: Behaviour, track_s: f64, trials: u64) -> f64 {
+    let horizon_s = 10.0;
+    let mut hits = 0;
+    for seed in 0..trials {
+        let cfg = PredictorConfig::default().forced_stage(Some(stage));
+        let (p, mut g) = fed(b, 15.0, 9.144, 1000 + seed, track_s, cfg);
+        let truth = g.advance(horizon_s);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let s = p.sample_future("0", horizon_s, 1000, &mut rng).unwrap();
+        let n = s.len() as f64;
+        let mean = [
+            s.iter().map(|q| q[0]).sum::<f64>() / n,
+            s.iter().map(|q| q[1]).sum::<f64>() / n,
+        ];
+        let mut d: Vec<f64> = s
+            .iter()
+            .map(|q| (q[0] - mean[0]).hypot(q[1] - mean[1]))
+            .collect();
+        d.sort_by(f64::total_cmp);
+        let r95 = d[(0.95 * n) as usize];
+        if (truth[0] - mean[0]).hypot(truth[1] - mean[1]) <= r95 {
+            hits += 1;
+        }
+    }
+    let c = hits as f64 / trials as f64;
+    eprintln!("coverage {stage:?}: {c}");
+    c
+}
+
+/// Tolerance: coverage in [0.88, 0.99] over 80 seeded trials (a binomial standard error of
+/// 0.024 at 95%, plus the models' own estimation error: the capability is a 5% radius
+/// quantile, the histograms are smoothed).
+#[test]
+fn the_random_stage_95_percent_region_covers_uniform_turners() {
+    let c = coverage(
+        Stage::Random,
+        Behaviour::Uniform {
+            w: 15f64.to_radians(),
+        },
+        60.0,
+        80,
+    );
+    assert!((0.88..=0.99).contains(&c), "coverage {c}");
+}
+
+#[test]
+fn the_advanced_stage_95_percent_region_covers_biased_turners() {
+    let c = coverage(
+        Stage::Advanced,
+        Behaviour::Biased {
+            w: 15f64.to_radians(),
+        },
+        100.0,
+        80,
+    );
+    assert!((0.88..=0.99).contains(&c), "coverage {c}");
+}
+
+#[test]
+fn the_memory_stage_95_percent_region_covers_zigzag_turners() {
+    let c = coverage(
+        Stage::Memory,
+        Behaviour::Zigzag {
+            w: 15f64.to_radians(),
+        },
+        120.0,
+        80,
+    );
+    assert!((0.88..=0.99).contains(&c), "coverage {c}");
+}

@@ -1,0 +1,195 @@
+//! Risk-map behaviour (seed 002, "Risk maps"): the stationary disc, determinism and
+//! incremental = full rebuild, threat filtering, the analytic NoFly disc, the planner's
+//! segment bound.
+
+mod common;
+
+use common::{Behaviour, Generator};
+use predictor::{Observation, Predictor, PredictorConfig, RiskField, RiskMapConfig, Stage};
+
+fn cfg() -> RiskMapConfig {
+    RiskMapConfig::default()
+        .bounds([-400.0, -400.0], [400.0, 400.0])
+        .time(1.0, 30.0)
+        .particles(128)
+        .seed(7)
+}
+
+#[test]
+fn a_stationary_obstacle_map_stays_a_disc_of_radius_plus_buffer() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    // Radius 9.144 m (30 ft) at (12, -7), 3 s of 10 Hz observations.
+    for i in 0..=30 {
+        let o = Observation {
+            t_s: f64::from(i) * 0.1,
+            p_m: [12.0, -7.0],
+            alt_m: 60.0,
+            radius_m: 9.144,
+        };
+        p.observe("s", o);
+    }
+    assert_eq!(p.obstacle("s").unwrap().stage, Stage::Random);
+    let c = cfg();
+    let map = p.risk_map(&c, &[], 3.0);
+    // Radius + buffer = 14.144 m; cells are 5 m, so a cell centre can be up to 3.54 m from
+    // the obstacle's cell centre: inside 14.144 - 7.1 everything is certain, beyond
+    // 14.144 + 7.1 nothing is.
+    for k in 0..map.slices() {
+        let t = 3.0 + k as f64;
+        let view = map.slice(t);
+        for iy in 0..view.height {
+            for ix in 0..view.width {
+                let x = view.origin_m[0] + (ix as f64 + 0.5) * view.cell_m;
+                let y = view.origin_m[1] + (iy as f64 + 0.5) * view.cell_m;
+                let d = (x - 12.0).hypot(y + 7.0);
+                let r = view.data[iy * view.width + ix];
+                if d < 14.144 - 7.1 {
+                    assert!(r > 0.999, "slice {k} cell at {d:.1} m: {r}");
+                } else if d > 14.144 + 7.1 {
+                    assert_eq!(r, 0.0, "slice {k} cell at {d:.1} m");
+                }
+                assert_eq!(r, map.risk([x, y], t) as f32);
+            }
+        }
+    }
+}
+
+fn feed(
+    p: &mut Predictor,
+    id: &str,
+    b: Behaviour,
+    seed: u64,
+    offset: [f64; 2],
+) -> Vec<Observation> {
+    let mut g = Generator::new(b, 12.0, seed);
+    let mut obs = g.track(70.0);
+    for o in &mut obs {
+        o.p_m = [o.p_m[0] + offset[0], o.p_m[1] + offset[1]];
+        o.p_m = [o.p_m[0] * 0.2, o.p_m[1] * 0.2]; // stay near the middle of the grid
+    }
+    for o in &obs[..obs.len() - 5] {
+        p.observe(id, *o);
+    }
+    obs
+}
+
+#[test]
+fn an_incremental_update_equals_a_full_rebuild() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    let a = feed(&mut p, "a", Behaviour::Uniform { w: 0.2 }, 1, [0.0, 0.0]);
+    let b = feed(&mut p, "b", Behaviour::Straight, 2, [300.0, 0.0]);
+    let _ = feed(
+        &mut p,
+        "c",
+        Behaviour::Biased { w: 0.2 },
+        3,
+        [-300.0, 100.0],
+    );
+    let c = cfg();
+    let t0 = 69.5;
+    p.risk_map(&c, &[], t0);
+    // New observations of two obstacles, then an incremental update.
+    for o in &a[a.len() - 5..] {
+        p.observe("a", *o);
+    }
+    p.observe("b", b[b.len() - 5]);
+    let inc = p.risk_map(&c, &[], t0).clone();
+    let full = p.build_risk_map(&c, &[], t0).unwrap();
+    let mut worst: f64 = 0.0;
+    for k in 0..full.slices() {
+        let t = t0 + k as f64;
+        let (a, b) = (inc.slice(t), full.slice(t));
+        for (x, y) in a.data.iter().zip(&b.data) {
+            worst = worst.max(f64::from((x - y).abs()));
+        }
+    }
+    assert!(worst < 1e-6, "incremental differs from rebuild by {worst}");
+    assert!(full.slice(t0 + 10.0).data.iter().any(|&r| r > 0.0));
+}
+
+#[test]
+fn the_same_seed_gives_the_same_map_and_another_seed_a_different_one() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    feed(&mut p, "a", Behaviour::Uniform { w: 0.2 }, 4, [0.0, 0.0]);
+    let m1 = p.build_risk_map(&cfg(), &[], 70.0).unwrap();
+    let m2 = p.build_risk_map(&cfg(), &[], 70.0).unwrap();
+    let m3 = p.build_risk_map(&cfg().seed(8), &[], 70.0).unwrap();
+    assert_eq!(m1.slice(90.0), m2.slice(90.0));
+    assert_ne!(m1.slice(90.0), m3.slice(90.0));
+}
+
+#[test]
+fn an_obstacle_that_cannot_reach_the_path_costs_nothing() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    // A 10 m/s obstacle heading east at (0, 300), observed for 3 s.
+    for i in 0..=30 {
+        let t = f64::from(i) * 0.1;
+        p.observe(
+            "far",
+            Observation {
+                t_s: t,
+                p_m: [10.0 * t, 300.0],
+                alt_m: 60.0,
+                radius_m: 10.0,
+            },
+        );
+    }
+    assert_eq!(p.obstacle("far").unwrap().stage, Stage::Random);
+    let c = cfg().time(1.0, 10.0);
+    // Over 3 s -> 13 s it travels at most 100 m; radius + buffer 15 m: a path 200 m away
+    // is out of reach, one 100 m away is not.
+    let path_far = [[-300.0, 100.0], [300.0, 100.0]];
+    let map = p.risk_map(&c, &path_far, 3.0).clone();
+    assert!(!map.is_threat("far"));
+    assert!(map.slice(8.0).data.iter().all(|&r| r == 0.0));
+    let path_near = [[-300.0, 200.0], [300.0, 200.0]];
+    let map = p.risk_map(&c, &path_near, 3.0);
+    assert!(map.is_threat("far"));
+    assert!(map.risk([30.0, 300.0], 3.0) > 0.99);
+}
+
+#[test]
+fn a_new_obstacle_is_an_analytic_no_fly_disc_growing_at_the_assumed_speed() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    p.observe(
+        "n",
+        Observation {
+            t_s: 0.0,
+            p_m: [0.0, 0.0],
+            alt_m: 60.0,
+            radius_m: 10.0,
+        },
+    );
+    assert_eq!(p.obstacle("n").unwrap().stage, Stage::NoFly);
+    let map = p.risk_map(&cfg(), &[], 0.0);
+    // Radius 10 + buffer 5 + 20.58 * 1.25 m/s * t: 15 m at t=0, 143.6 m at t=5.
+    assert_eq!(map.risk([14.0, 0.0], 0.0), 1.0);
+    assert_eq!(map.risk([16.0, 0.0], 0.0), 0.0);
+    assert_eq!(map.risk([0.0, 143.0], 5.0), 1.0);
+    assert_eq!(map.risk([0.0, 145.0], 5.0), 0.0);
+    assert_eq!(
+        map.segment_risk_bound([-200.0, 100.0], [200.0, 100.0], 4.0, 6.0),
+        1.0
+    );
+}
+
+#[test]
+fn the_constant_velocity_baseline_is_a_disc_at_the_extrapolated_position() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    for i in 0..=20 {
+        let t = f64::from(i) * 0.1;
+        p.observe(
+            "cv",
+            Observation {
+                t_s: t,
+                p_m: [0.0, 10.0 * t],
+                alt_m: 60.0,
+                radius_m: 10.0,
+            },
+        );
+    }
+    let f = p.constant_velocity_field(5.0);
+    // At t = 12 the obstacle is extrapolated to (0, 120); radius + buffer 15.
+    assert_eq!(f.risk([0.0, 134.0], 12.0), 1.0);
+    assert_eq!(f.risk([0.0, 136.0], 12.0), 0.0);
+}
