@@ -131,6 +131,10 @@ impl std::fmt::Display for Side {
 
 /// Wrap an angle in degrees into `(-180, 180]`.
 pub(crate) fn wrap_deg_pm180(angle_deg: f64) -> f64 {
+    // fast path: most sweeps are already in range, and fmod is slow in a 360-beam loop
+    if angle_deg > -180.0 && angle_deg <= 180.0 {
+        return angle_deg;
+    }
     let a = angle_deg.rem_euclid(360.0);
     if a > 180.0 { a - 360.0 } else { a }
 }

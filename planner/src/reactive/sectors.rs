@@ -193,8 +193,12 @@ pub struct SectorDecision {
 
 /// The regions (0-7) a bearing belongs to, as a bit set.
 fn regions_of(bearing_deg: f64, params: &SectorParams) -> u8 {
-    // bearing in [0, 360)
-    let a = bearing_deg.rem_euclid(360.0);
+    // bearing in [0, 360) (fast path without fmod for the usual case)
+    let a = if (0.0..360.0).contains(&bearing_deg) {
+        bearing_deg
+    } else {
+        bearing_deg.rem_euclid(360.0)
+    };
     let mut set = 0u8;
     let half_front = params.front_width_deg / 2.0;
     // front: [-half, half)
@@ -204,8 +208,13 @@ fn regions_of(bearing_deg: f64, params: &SectorParams) -> u8 {
     let half = params.sector_width_deg / 2.0;
     for k in 1..8u8 {
         let c = 45.0 * f64::from(k);
-        // signed offset from the centre in [-180, 180)
-        let off = (a - c + 180.0).rem_euclid(360.0) - 180.0;
+        // signed offset from the centre in [-180, 180): a - c is in (-315, 315)
+        let mut off = a - c;
+        if off >= 180.0 {
+            off -= 360.0;
+        } else if off < -180.0 {
+            off += 360.0;
+        }
         if off >= -half && off < half {
             set |= 1 << k;
         }
