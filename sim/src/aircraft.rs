@@ -118,7 +118,12 @@ impl Autopilot {
         let heading_rad = d[1].atan2(d[0]);
         Self {
             params,
-            state: AircraftState { t_s: 0.0, p_m, heading_rad, speed_mps: params.speed_mps },
+            state: AircraftState {
+                t_s: 0.0,
+                p_m,
+                heading_rad,
+                speed_mps: params.speed_mps,
+            },
             leg_start_m: xy(p_m),
             steer: None,
         }
@@ -163,7 +168,9 @@ impl Autopilot {
         let omega_max = self.params.max_turn_rate_rad_s();
         let target = stack.target().copied();
         let omega = match (self.steer, target) {
-            (Some(s), _) if s.until_s > self.state.t_s => s.turn_rate_rad_s.clamp(-omega_max, omega_max),
+            (Some(s), _) if s.until_s > self.state.t_s => {
+                s.turn_rate_rad_s.clamp(-omega_max, omega_max)
+            }
             (_, Some(t)) => self.l1_lateral_accel_mps2(xy(t.p_m)) / self.params.speed_mps,
             (_, None) => 0.0,
         };
@@ -183,7 +190,9 @@ impl Autopilot {
         self.state.t_s += dt_s;
         // waypoint switching (at most a couple per step)
         for _ in 0..4 {
-            let Some(t) = stack.target().copied() else { break };
+            let Some(t) = stack.target().copied() else {
+                break;
+            };
             let pos = xy(self.state.p_m);
             let tp = xy(t.p_m);
             let within = dist(pos, tp) <= self.params.acceptance_radius_m;
@@ -233,7 +242,10 @@ mod tests {
         let mut ap = Autopilot::new(params, [0.0, 100.0, 100.0], [1.0, 100.0]);
         ap.leg_start_m = [0.0, 0.0];
         let mut stack = Stack {
-            items: vec![StackItem { p_m: [2000.0, 0.0, 100.0], kind: ItemKind::Mission(0) }],
+            items: vec![StackItem {
+                p_m: [2000.0, 0.0, 100.0],
+                kind: ItemKind::Mission(0),
+            }],
             current: 0,
         };
         let mut max_xt_late: f64 = 0.0;

@@ -39,7 +39,13 @@ pub enum BehaviourKind {
 
 impl BehaviourKind {
     /// All kinds, in report order.
-    pub const ALL: [BehaviourKind; 5] = [Self::Straight, Self::Random, Self::Biased, Self::Patterned, Self::Spline];
+    pub const ALL: [BehaviourKind; 5] = [
+        Self::Straight,
+        Self::Random,
+        Self::Biased,
+        Self::Patterned,
+        Self::Spline,
+    ];
 
     /// Lower-case name.
     pub fn name(self) -> &'static str {
@@ -125,7 +131,11 @@ impl Trajectory {
         }
         let f = x - i as f64;
         let (a, b) = (self.samples_m[i], self.samples_m[i + 1]);
-        [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f]
+        [
+            a[0] + (b[0] - a[0]) * f,
+            a[1] + (b[1] - a[1]) * f,
+            a[2] + (b[2] - a[2]) * f,
+        ]
     }
 
     /// Duration covered, seconds.
@@ -162,7 +172,9 @@ pub fn trajectory<R: Rng + ?Sized>(
 ) -> Trajectory {
     let steps = (duration_s / dt_s).ceil() as usize;
     if let Behaviour::Spline(tour) = behaviour {
-        let samples_m = (0..=steps).map(|i| tour.position(i as f64 * dt_s)).collect();
+        let samples_m = (0..=steps)
+            .map(|i| tour.position(i as f64 * dt_s))
+            .collect();
         return Trajectory { dt_s, samples_m };
     }
     let per_decision = (DECISION_INTERVAL_S / dt_s).round().max(1.0) as usize;
@@ -174,10 +186,19 @@ pub fn trajectory<R: Rng + ?Sized>(
     let mut turn_left = 0u32;
     let mut state: i32 = 0;
     let max_rate = match behaviour {
-        Behaviour::Straight { turn_rate_rad_s, .. } => *turn_rate_rad_s,
-        Behaviour::Random { max_turn_rate_rad_s } => *max_turn_rate_rad_s,
-        Behaviour::Biased { max_turn_rate_rad_s, .. } => *max_turn_rate_rad_s,
-        Behaviour::Patterned { turn_rate_rad_s, .. } => *turn_rate_rad_s,
+        Behaviour::Straight {
+            turn_rate_rad_s, ..
+        } => *turn_rate_rad_s,
+        Behaviour::Random {
+            max_turn_rate_rad_s,
+        } => *max_turn_rate_rad_s,
+        Behaviour::Biased {
+            max_turn_rate_rad_s,
+            ..
+        } => *max_turn_rate_rad_s,
+        Behaviour::Patterned {
+            turn_rate_rad_s, ..
+        } => *turn_rate_rad_s,
         Behaviour::Spline(_) => 0.0,
     }
     .max(0.15);
@@ -188,25 +209,40 @@ pub fn trajectory<R: Rng + ?Sized>(
             // every behaviour draws its own decision first (keeps the random stream aligned
             // whether or not containment overrides it)
             omega = match behaviour {
-                Behaviour::Straight { turn_prob, turn_rate_rad_s } => {
+                Behaviour::Straight {
+                    turn_prob,
+                    turn_rate_rad_s,
+                } => {
                     if turn_left > 0 {
                         turn_left -= 1;
                         omega
                     } else if rng.random::<f64>() < *turn_prob {
                         turn_left = rng.random_range(2..6);
-                        if rng.random::<bool>() { *turn_rate_rad_s } else { -*turn_rate_rad_s }
+                        if rng.random::<bool>() {
+                            *turn_rate_rad_s
+                        } else {
+                            -*turn_rate_rad_s
+                        }
                     } else {
                         0.0
                     }
                 }
-                Behaviour::Random { max_turn_rate_rad_s } => {
-                    rng.random_range(-*max_turn_rate_rad_s..=*max_turn_rate_rad_s)
-                }
-                Behaviour::Biased { mean_rad_s, sigma_rad_s, max_turn_rate_rad_s } => {
+                Behaviour::Random {
+                    max_turn_rate_rad_s,
+                } => rng.random_range(-*max_turn_rate_rad_s..=*max_turn_rate_rad_s),
+                Behaviour::Biased {
+                    mean_rad_s,
+                    sigma_rad_s,
+                    max_turn_rate_rad_s,
+                } => {
                     let d = Normal::new(*mean_rad_s, sigma_rad_s.max(1e-9)).unwrap();
-                    d.sample(rng).clamp(-*max_turn_rate_rad_s, *max_turn_rate_rad_s)
+                    d.sample(rng)
+                        .clamp(-*max_turn_rate_rad_s, *max_turn_rate_rad_s)
                 }
-                Behaviour::Patterned { turn_rate_rad_s, follow_prob } => {
+                Behaviour::Patterned {
+                    turn_rate_rad_s,
+                    follow_prob,
+                } => {
                     let u = rng.random::<f64>();
                     state = match state {
                         0 => {

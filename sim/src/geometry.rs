@@ -52,7 +52,11 @@ pub fn dist(a: P2, b: P2) -> f64 {
 #[inline]
 pub fn unit(a: P2) -> P2 {
     let n = norm(a);
-    if n > 0.0 { scale(a, 1.0 / n) } else { [0.0, 0.0] }
+    if n > 0.0 {
+        scale(a, 1.0 / n)
+    } else {
+        [0.0, 0.0]
+    }
 }
 
 /// `a` rotated by +90 degrees (to the left).
@@ -188,7 +192,14 @@ mod tests {
     #[test]
     fn polygon_membership_and_segment_containment_follow_the_edges() {
         // An L-shaped polygon: the segment between the two arms leaves it.
-        let l = [[0.0, 0.0], [10.0, 0.0], [10.0, 2.0], [2.0, 2.0], [2.0, 10.0], [0.0, 10.0]];
+        let l = [
+            [0.0, 0.0],
+            [10.0, 0.0],
+            [10.0, 2.0],
+            [2.0, 2.0],
+            [2.0, 10.0],
+            [0.0, 10.0],
+        ];
         assert!(point_in_polygon([1.0, 1.0], &l));
         assert!(!point_in_polygon([5.0, 5.0], &l));
         assert!(segment_inside_polygon([1.0, 1.0], [9.0, 1.0], &l));

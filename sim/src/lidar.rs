@@ -27,7 +27,12 @@ pub struct LidarParams {
 
 impl Default for LidarParams {
     fn default() -> Self {
-        Self { beams: 360, fov_deg: 360.0, angle_min_deg: -180.0, range_m: 150.0 }
+        Self {
+            beams: 360,
+            fov_deg: 360.0,
+            angle_min_deg: -180.0,
+            range_m: 150.0,
+        }
     }
 }
 
@@ -85,14 +90,25 @@ pub fn scan(params: &LidarParams, origin_m: P2, heading_rad: f64, circles: &[(P2
             }
         }
         angles_deg.push(a);
-        ranges_m.push(if best <= params.range_m { best } else { f64::INFINITY });
+        ranges_m.push(if best <= params.range_m {
+            best
+        } else {
+            f64::INFINITY
+        });
     }
-    Scan { angles_deg, ranges_m }
+    Scan {
+        angles_deg,
+        ranges_m,
+    }
 }
 
 /// The cross-sections at altitude `alt_m` of cylinders `(centre, radius, top)` and spheres
 /// `(centre, radius)`.
-pub fn cross_sections(alt_m: f64, cylinders: &[(P2, f64, f64)], spheres: &[([f64; 3], f64)]) -> Vec<(P2, f64)> {
+pub fn cross_sections(
+    alt_m: f64,
+    cylinders: &[(P2, f64, f64)],
+    spheres: &[([f64; 3], f64)],
+) -> Vec<(P2, f64)> {
     let mut out = Vec::new();
     for (c, r, top) in cylinders {
         if alt_m <= *top {

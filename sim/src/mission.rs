@@ -55,7 +55,10 @@ impl Mission {
                 .waypoints_m
                 .iter()
                 .enumerate()
-                .map(|(i, p)| StackItem { p_m: *p, kind: ItemKind::Mission(i) })
+                .map(|(i, p)| StackItem {
+                    p_m: *p,
+                    kind: ItemKind::Mission(i),
+                })
                 .collect(),
             current: 0,
         }
@@ -65,7 +68,11 @@ impl Mission {
     pub fn bounds_m(&self) -> (P2, P2) {
         let mut lo = [f64::INFINITY; 2];
         let mut hi = [f64::NEG_INFINITY; 2];
-        let pts = self.fly_zone_m.iter().copied().chain(self.waypoints_m.iter().map(|w| xy(*w)));
+        let pts = self
+            .fly_zone_m
+            .iter()
+            .copied()
+            .chain(self.waypoints_m.iter().map(|w| xy(*w)));
         for p in pts {
             for k in 0..2 {
                 lo[k] = lo[k].min(p[k]);
@@ -111,10 +118,12 @@ impl Stack {
 
     /// Index (in the mission) of the first mission waypoint at or after `current`.
     pub fn next_mission_index(&self) -> Option<usize> {
-        self.items[self.current.min(self.items.len())..].iter().find_map(|it| match it.kind {
-            ItemKind::Mission(i) => Some(i),
-            ItemKind::Avoid => None,
-        })
+        self.items[self.current.min(self.items.len())..]
+            .iter()
+            .find_map(|it| match it.kind {
+                ItemKind::Mission(i) => Some(i),
+                ItemKind::Avoid => None,
+            })
     }
 
     /// Items from `current` on.

@@ -53,8 +53,15 @@ pub enum Family {
 
 impl Family {
     /// All families.
-    pub const ALL: [Family; 7] =
-        [Self::Mixed, Self::Straight, Self::Random, Self::Biased, Self::Patterned, Self::Spline, Self::Static];
+    pub const ALL: [Family; 7] = [
+        Self::Mixed,
+        Self::Straight,
+        Self::Random,
+        Self::Biased,
+        Self::Patterned,
+        Self::Spline,
+        Self::Static,
+    ];
 
     /// Lower-case name.
     pub fn name(self) -> &'static str {
@@ -138,14 +145,38 @@ pub struct Scenario {
 pub fn generate(family: Family, seed: u64, params: &ScenarioParams) -> Scenario {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5CE7_A210);
     let mission = random_mission(params, &mut rng);
-    let n = if family == Family::Static { 0 } else { rng.random_range(params.spheres.0..=params.spheres.1) };
-    with_moving_spheres_rng(mission, family, seed, n, params.aircraft_speed_mps, &mut rng)
+    let n = if family == Family::Static {
+        0
+    } else {
+        rng.random_range(params.spheres.0..=params.spheres.1)
+    };
+    with_moving_spheres_rng(
+        mission,
+        family,
+        seed,
+        n,
+        params.aircraft_speed_mps,
+        &mut rng,
+    )
 }
 
 /// Adds `n_spheres` moving spheres of `family` to a given (e.g. real) mission.
-pub fn with_moving_spheres(mission: Mission, family: Family, seed: u64, n_spheres: usize, aircraft_speed_mps: f64) -> Scenario {
+pub fn with_moving_spheres(
+    mission: Mission,
+    family: Family,
+    seed: u64,
+    n_spheres: usize,
+    aircraft_speed_mps: f64,
+) -> Scenario {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0B57_AC1E);
-    with_moving_spheres_rng(mission, family, seed, n_spheres.min(10), aircraft_speed_mps, &mut rng)
+    with_moving_spheres_rng(
+        mission,
+        family,
+        seed,
+        n_spheres.min(10),
+        aircraft_speed_mps,
+        &mut rng,
+    )
 }
 
 fn with_moving_spheres_rng(
@@ -160,9 +191,17 @@ fn with_moving_spheres_rng(
     let spheres = if family == Family::Static {
         vec![]
     } else {
-        (0..n_spheres).map(|_| random_sphere(&mission, family, duration_s, rng)).collect()
+        (0..n_spheres)
+            .map(|_| random_sphere(&mission, family, duration_s, rng))
+            .collect()
     };
-    Scenario { family, seed, mission, spheres, duration_s }
+    Scenario {
+        family,
+        seed,
+        mission,
+        spheres,
+        duration_s,
+    }
 }
 
 fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> Mission {
@@ -208,7 +247,9 @@ fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> Miss
         waypoints_m,
         cylinders: vec![],
     };
-    let nc = rng.random_range(params.cylinders.0..=params.cylinders.1).min(10);
+    let nc = rng
+        .random_range(params.cylinders.0..=params.cylinders.1)
+        .min(10);
     let mut tries = 0;
     while mission.cylinders.len() < nc && tries < 1000 {
         tries += 1;
@@ -216,27 +257,46 @@ fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> Miss
         let top_m = rng.random_range(CYL_TOP_RANGE_M.0..CYL_TOP_RANGE_M.1);
         let center_m = if rng.random::<f64>() < params.cylinders_on_legs {
             let k = rng.random_range(0..mission.waypoints_m.len());
-            let a = if k == 0 { xy(mission.start_m) } else { xy(mission.waypoints_m[k - 1]) };
+            let a = if k == 0 {
+                xy(mission.start_m)
+            } else {
+                xy(mission.waypoints_m[k - 1])
+            };
             let b = xy(mission.waypoints_m[k]);
             let f = rng.random_range(0.25..0.75);
             let d = crate::geometry::unit(crate::geometry::sub(b, a));
             let off = rng.random_range(-0.6..0.6) * radius_m;
-            [a[0] + (b[0] - a[0]) * f - d[1] * off, a[1] + (b[1] - a[1]) * f + d[0] * off]
+            [
+                a[0] + (b[0] - a[0]) * f - d[1] * off,
+                a[1] + (b[1] - a[1]) * f + d[0] * off,
+            ]
         } else {
             sample_inside(rng)
         };
         let clear_of_points = std::iter::once(xy(mission.start_m))
             .chain(mission.waypoints_m.iter().map(|w| xy(*w)))
             .all(|w| dist(w, center_m) > radius_m + 40.0);
-        let clear_of_others = mission.cylinders.iter().all(|c| dist(c.center_m, center_m) > c.radius_m + radius_m + 30.0);
+        let clear_of_others = mission
+            .cylinders
+            .iter()
+            .all(|c| dist(c.center_m, center_m) > c.radius_m + radius_m + 30.0);
         if clear_of_points && clear_of_others && point_in_polygon(center_m, &mission.fly_zone_m) {
-            mission.cylinders.push(Cylinder { center_m, radius_m, top_m });
+            mission.cylinders.push(Cylinder {
+                center_m,
+                radius_m,
+                top_m,
+            });
         }
     }
     mission
 }
 
-fn random_sphere<R: Rng + ?Sized>(mission: &Mission, family: Family, duration_s: f64, rng: &mut R) -> MovingSphere {
+fn random_sphere<R: Rng + ?Sized>(
+    mission: &Mission,
+    family: Family,
+    duration_s: f64,
+    rng: &mut R,
+) -> MovingSphere {
     let kind = match family {
         Family::Mixed | Family::Static => BehaviourKind::ALL[rng.random_range(0..5)],
         Family::Straight => BehaviourKind::Straight,
@@ -252,8 +312,27 @@ fn random_sphere<R: Rng + ?Sized>(mission: &Mission, family: Family, duration_s:
     let center = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
     let half = [(hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0];
     let start_xy = mission.start_m;
+    // most points near a mission leg (within 200 m of it), the rest anywhere in the bounds
+    let legs: Vec<(P2, P2)> = std::iter::once(xy(mission.start_m))
+        .chain(mission.waypoints_m.iter().map(|w| xy(*w)))
+        .collect::<Vec<_>>()
+        .windows(2)
+        .map(|w| (w[0], w[1]))
+        .collect();
     let pick_xy = |rng: &mut R| loop {
-        let p = [center[0] + rng.random_range(-half[0]..half[0]), center[1] + rng.random_range(-half[1]..half[1])];
+        let p = if rng.random::<f64>() < 0.7 && !legs.is_empty() {
+            let (a, b) = legs[rng.random_range(0..legs.len())];
+            let f = rng.random_range(0.0..1.0);
+            [
+                a[0] + (b[0] - a[0]) * f + rng.random_range(-200.0..200.0),
+                a[1] + (b[1] - a[1]) * f + rng.random_range(-200.0..200.0),
+            ]
+        } else {
+            [
+                center[0] + rng.random_range(-half[0]..half[0]),
+                center[1] + rng.random_range(-half[1]..half[1]),
+            ]
+        };
         if dist(p, xy(start_xy)) > 250.0 + radius_m {
             return p;
         }
@@ -263,8 +342,13 @@ fn random_sphere<R: Rng + ?Sized>(mission: &Mission, family: Family, duration_s:
         w[2] + rng.random_range(-0.5..0.5) * radius_m
     };
     let behaviour = match kind {
-        BehaviourKind::Straight => Behaviour::Straight { turn_prob: 0.02, turn_rate_rad_s: rng.random_range(0.1..0.3) },
-        BehaviourKind::Random => Behaviour::Random { max_turn_rate_rad_s: rng.random_range(0.15..0.4) },
+        BehaviourKind::Straight => Behaviour::Straight {
+            turn_prob: 0.02,
+            turn_rate_rad_s: rng.random_range(0.1..0.3),
+        },
+        BehaviourKind::Random => Behaviour::Random {
+            max_turn_rate_rad_s: rng.random_range(0.15..0.4),
+        },
         BehaviourKind::Biased => {
             let side = if rng.random::<bool>() { 1.0 } else { -1.0 };
             Behaviour::Biased {
@@ -273,9 +357,10 @@ fn random_sphere<R: Rng + ?Sized>(mission: &Mission, family: Family, duration_s:
                 max_turn_rate_rad_s: 0.35,
             }
         }
-        BehaviourKind::Patterned => {
-            Behaviour::Patterned { turn_rate_rad_s: rng.random_range(0.15..0.3), follow_prob: rng.random_range(0.7..0.9) }
-        }
+        BehaviourKind::Patterned => Behaviour::Patterned {
+            turn_rate_rad_s: rng.random_range(0.15..0.3),
+            follow_prob: rng.random_range(0.7..0.9),
+        },
         BehaviourKind::Spline => {
             let n = rng.random_range(2..=5);
             let mut wps: Vec<[f64; 3]> = Vec::with_capacity(n);
@@ -294,10 +379,15 @@ fn random_sphere<R: Rng + ?Sized>(mission: &Mission, family: Family, duration_s:
         heading_rad: rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
         speed_mps,
         contain_center_m: center,
-        contain_radius_m: half[0].max(half[1]) * 1.1,
+        contain_radius_m: half[0].max(half[1]) * 0.9,
     };
     let track = trajectory(&behaviour, &start, duration_s, TRUTH_DT_S, rng);
-    MovingSphere { radius_m, speed_mps, behaviour, track }
+    MovingSphere {
+        radius_m,
+        speed_mps,
+        behaviour,
+        track,
+    }
 }
 
 #[cfg(test)]
@@ -313,7 +403,10 @@ mod tests {
                 assert!(c.radius_m >= RADIUS_RANGE_M.0 && c.radius_m <= RADIUS_RANGE_M.1);
                 assert!(c.top_m >= CYL_TOP_RANGE_M.0 && c.top_m <= CYL_TOP_RANGE_M.1);
                 for w in &s.mission.waypoints_m {
-                    assert!(dist(xy(*w), c.center_m) > c.radius_m, "waypoint inside a cylinder");
+                    assert!(
+                        dist(xy(*w), c.center_m) > c.radius_m,
+                        "waypoint inside a cylinder"
+                    );
                 }
             }
             for sp in &s.spheres {
@@ -330,7 +423,13 @@ mod tests {
     #[test]
     fn the_same_seed_gives_the_same_scenario() {
         let p = ScenarioParams::default();
-        assert_eq!(generate(Family::Mixed, 7, &p), generate(Family::Mixed, 7, &p));
-        assert_ne!(generate(Family::Mixed, 7, &p), generate(Family::Mixed, 8, &p));
+        assert_eq!(
+            generate(Family::Mixed, 7, &p),
+            generate(Family::Mixed, 7, &p)
+        );
+        assert_ne!(
+            generate(Family::Mixed, 7, &p),
+            generate(Family::Mixed, 8, &p)
+        );
     }
 }

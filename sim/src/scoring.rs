@@ -57,7 +57,14 @@ pub fn interpolate(telemetry: &[(f64, [f64; 3])]) -> Vec<(f64, [f64; 3])> {
                 break;
             }
             let f = (t - t0) / gap;
-            out.push((t, [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f, a[2] + (b[2] - a[2]) * f]));
+            out.push((
+                t,
+                [
+                    a[0] + (b[0] - a[0]) * f,
+                    a[1] + (b[1] - a[1]) * f,
+                    a[2] + (b[2] - a[2]) * f,
+                ],
+            ));
             k += 1;
         }
     }
@@ -101,12 +108,26 @@ pub fn class_score(hits: &[bool]) -> f64 {
 /// the top, else the distance to the top disc.
 pub fn cylinder_clearance_m(p: [f64; 3], c: &Cylinder) -> f64 {
     let h = ((p[0] - c.center_m[0]).powi(2) + (p[1] - c.center_m[1]).powi(2)).sqrt() - c.radius_m;
-    if p[2] <= c.top_m { h } else { (h.max(0.0).powi(2) + (p[2] - c.top_m).powi(2)).sqrt() }
+    if p[2] <= c.top_m {
+        h
+    } else {
+        (h.max(0.0).powi(2) + (p[2] - c.top_m).powi(2)).sqrt()
+    }
 }
 
 /// Scores aircraft telemetry `(t, position)` in time order.
-pub fn judge(telemetry: &[(f64, [f64; 3])], spheres: &dyn SphereTruth, mission: &Mission) -> JudgeReport {
-    judge_points(&interpolate(telemetry), spheres, &mission.cylinders, &mission.waypoints_m, Some(mission))
+pub fn judge(
+    telemetry: &[(f64, [f64; 3])],
+    spheres: &dyn SphereTruth,
+    mission: &Mission,
+) -> JudgeReport {
+    judge_points(
+        &interpolate(telemetry),
+        spheres,
+        &mission.cylinders,
+        &mission.waypoints_m,
+        Some(mission),
+    )
 }
 
 /// Scores already interpolated points; `mission` (optional) supplies the fly zone.
@@ -200,7 +221,11 @@ mod tests {
         }
     }
 
-    fn no_mission(points: &[(f64, [f64; 3])], s: &dyn SphereTruth, cyl: &[Cylinder]) -> JudgeReport {
+    fn no_mission(
+        points: &[(f64, [f64; 3])],
+        s: &dyn SphereTruth,
+        cyl: &[Cylinder],
+    ) -> JudgeReport {
         judge_points(&interpolate(points), s, cyl, &[], None)
     }
 
@@ -246,7 +271,12 @@ mod tests {
         // Sphere moving east 10 m/s, r = 10. Aircraft waits at x = 100: at t = 10 s the sphere
         // is at x = 100 -> hit. Aircraft waiting at x = 100 only for t in [0, 5]: sphere at
         // x <= 50 then, 50 m away -> no hit.
-        let hit = [(0.0, [100.0, 0.0, 100.0]), (4.0, [100.0, 0.0, 100.0]), (8.0, [100.0, 0.0, 100.0]), (12.0, [100.0, 0.0, 100.0])];
+        let hit = [
+            (0.0, [100.0, 0.0, 100.0]),
+            (4.0, [100.0, 0.0, 100.0]),
+            (8.0, [100.0, 0.0, 100.0]),
+            (12.0, [100.0, 0.0, 100.0]),
+        ];
         assert_eq!(no_mission(&hit, &Moving, &[]).sphere_hits, vec![true]);
         let miss = [(0.0, [100.0, 0.0, 100.0]), (5.0, [100.0, 0.0, 100.0])];
         let r = no_mission(&miss, &Moving, &[]);
@@ -258,7 +288,11 @@ mod tests {
     fn a_cylinder_counts_at_or_below_its_top_only() {
         // Cylinder r = 20 at the origin, top 100 m. Passing through its axis at 100 m (= top):
         // hit. At 100.5 m: no hit, clearance 0.5 m (straight above the top disc).
-        let c = [Cylinder { center_m: [0.0, 0.0], radius_m: 20.0, top_m: 100.0 }];
+        let c = [Cylinder {
+            center_m: [0.0, 0.0],
+            radius_m: 20.0,
+            top_m: 100.0,
+        }];
         let none = Still(vec![]);
         let at_top = [(0.0, [-50.0, 0.0, 100.0]), (5.0, [50.0, 0.0, 100.0])];
         assert_eq!(no_mission(&at_top, &none, &c).cylinder_hits, vec![true]);
@@ -288,8 +322,14 @@ mod tests {
         let none = Still(vec![]);
         let w = [[0.0, 0.0, 100.0]];
         let near = interpolate(&[(0.0, [-50.0, 30.0, 100.0]), (5.0, [50.0, 30.0, 100.0])]);
-        assert_eq!(judge_points(&near, &none, &[], &w, None).waypoints_captured, vec![true]);
+        assert_eq!(
+            judge_points(&near, &none, &[], &w, None).waypoints_captured,
+            vec![true]
+        );
         let far = interpolate(&[(0.0, [-50.0, 31.0, 100.0]), (5.0, [50.0, 31.0, 100.0])]);
-        assert_eq!(judge_points(&far, &none, &[], &w, None).waypoints_captured, vec![false]);
+        assert_eq!(
+            judge_points(&far, &none, &[], &w, None).waypoints_captured,
+            vec![false]
+        );
     }
 }

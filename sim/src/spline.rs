@@ -62,8 +62,16 @@ impl SplineTour {
             }
             knots_s.push(knots_s[i] + d / speed_avg_mps);
         }
-        let second_derivs = if n >= 3 { periodic_cubic_second_derivs(&waypoints_m, &knots_s) } else { vec![] };
-        Ok(Self { waypoints_m, knots_s, second_derivs })
+        let second_derivs = if n >= 3 {
+            periodic_cubic_second_derivs(&waypoints_m, &knots_s)
+        } else {
+            vec![]
+        };
+        Ok(Self {
+            waypoints_m,
+            knots_s,
+            second_derivs,
+        })
     }
 
     /// The loop's period, seconds.
@@ -154,7 +162,9 @@ fn periodic_cubic_second_derivs(y: &[[f64; 3]], knots: &[f64]) -> Vec<[f64; 3]> 
 fn solve_dense(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
     let n = b.len();
     for col in 0..n {
-        let piv = (col..n).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs())).unwrap();
+        let piv = (col..n)
+            .max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))
+            .unwrap();
         a.swap(col, piv);
         b.swap(col, piv);
         for row in col + 1..n {
@@ -183,7 +193,12 @@ mod tests {
     fn square() -> SplineTour {
         // 4 waypoints on a 400 m square, altitudes varying; 3-D legs: 400, ~400.5, 400, ~400.5
         SplineTour::new(
-            vec![[0.0, 0.0, 100.0], [400.0, 0.0, 100.0], [400.0, 400.0, 120.0], [0.0, 400.0, 100.0]],
+            vec![
+                [0.0, 0.0, 100.0],
+                [400.0, 0.0, 100.0],
+                [400.0, 400.0, 120.0],
+                [0.0, 400.0, 100.0],
+            ],
             10.0,
         )
         .unwrap()
@@ -234,7 +249,8 @@ mod tests {
         let mut prev = s.position(0.0);
         for i in 1..=steps {
             let p = s.position(f64::from(i) * dt);
-            len += ((p[0] - prev[0]).powi(2) + (p[1] - prev[1]).powi(2) + (p[2] - prev[2]).powi(2)).sqrt();
+            len += ((p[0] - prev[0]).powi(2) + (p[1] - prev[1]).powi(2) + (p[2] - prev[2]).powi(2))
+                .sqrt();
             prev = p;
         }
         let avg = len / s.period_s();
@@ -258,8 +274,14 @@ mod tests {
 
     #[test]
     fn bad_tours_are_refused() {
-        assert_eq!(SplineTour::new(vec![[0.0; 3]], 5.0), Err(TourError::TooFewWaypoints(1)));
-        assert_eq!(SplineTour::new(vec![[0.0; 3], [1.0, 0.0, 0.0]], 0.0), Err(TourError::BadSpeed(0.0)));
+        assert_eq!(
+            SplineTour::new(vec![[0.0; 3]], 5.0),
+            Err(TourError::TooFewWaypoints(1))
+        );
+        assert_eq!(
+            SplineTour::new(vec![[0.0; 3], [1.0, 0.0, 0.0]], 0.0),
+            Err(TourError::BadSpeed(0.0))
+        );
         assert!(matches!(
             SplineTour::new(vec![[0.0; 3], [0.0; 3], [1.0, 0.0, 0.0]], 5.0),
             Err(TourError::RepeatedWaypoint(0, 1))

@@ -27,7 +27,11 @@ pub struct TelemetryParams {
 
 impl Default for TelemetryParams {
     fn default() -> Self {
-        Self { rate_hz: 2.0, noise_sigma_m: 1.0, dropout_prob: 0.05 }
+        Self {
+            rate_hz: 2.0,
+            noise_sigma_m: 1.0,
+            dropout_prob: 0.05,
+        }
     }
 }
 
@@ -61,7 +65,10 @@ pub struct ObstacleObservation {
 }
 
 /// Telemetry streams, one per moving sphere, in time order.
-pub fn sample_streams(scenario: &Scenario, params: &TelemetryParams) -> Vec<Vec<ObstacleObservation>> {
+pub fn sample_streams(
+    scenario: &Scenario,
+    params: &TelemetryParams,
+) -> Vec<Vec<ObstacleObservation>> {
     let mut rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x7E1E_0001);
     let noise = Normal::new(0.0, params.noise_sigma_m.max(0.0)).unwrap();
     let dt = 1.0 / params.rate_hz;
@@ -79,7 +86,11 @@ pub fn sample_streams(scenario: &Scenario, params: &TelemetryParams) -> Vec<Vec<
                     *c += noise.sample(&mut rng);
                 }
                 if !lost {
-                    out.push(ObstacleObservation { t_s, p_m, radius_m: s.radius_m });
+                    out.push(ObstacleObservation {
+                        t_s,
+                        p_m,
+                        radius_m: s.radius_m,
+                    });
                 }
             }
             out

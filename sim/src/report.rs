@@ -1,0 +1,50 @@
+//! Reports: the Markdown summary table and the JSON report of a suite.
+
+use std::fmt::Write;
+
+use crate::suite::SuiteReport;
+
+/// The summary as a Markdown table (one line per family and strategy).
+pub fn markdown_table(r: &SuiteReport) -> String {
+    let mut s = String::new();
+    s.push_str("| family | strategy | runs | sphere score | cylinder score | clean runs | sphere hits | cylinder hits | waypoints | path ratio | min clearance p50 (m) | wp added | out of zone (s) | replan p50 / p95 / max (ms) | mission-min per core-s |\n");
+    s.push_str("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    for row in &r.summary {
+        let tp = if row.cpu_s > 0.0 {
+            row.sim_s / 60.0 / row.cpu_s
+        } else {
+            0.0
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.3} | {:.3} | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.3} | {:.1} | {:.2} | {:.2} | {:.2} / {:.2} / {:.1} | {:.1} |",
+            row.family.name(),
+            row.strategy.name(),
+            row.runs,
+            row.sphere_score,
+            row.cylinder_score,
+            100.0 * row.clean_runs,
+            100.0 * row.sphere_hit_rate,
+            100.0 * row.cylinder_hit_rate,
+            100.0 * row.waypoint_rate,
+            row.path_ratio,
+            row.min_clearance_p50_m,
+            row.waypoints_added,
+            row.boundary_violation_s,
+            row.replan_p50_ms,
+            row.replan_p95_ms,
+            row.replan_max_ms,
+            tp,
+        );
+    }
+    s
+}
+
+/// The whole report as pretty JSON.
+///
+/// # Errors
+/// A serialisation failure (non-finite numbers are written as `null` by serde_json, so this
+/// is not expected).
+pub fn json(r: &SuiteReport) -> serde_json::Result<String> {
+    serde_json::to_string_pretty(r)
+}

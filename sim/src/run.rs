@@ -1,0 +1,273 @@
+//! One closed-loop run: a scenario, a strategy, the aircraft, the telemetry, the judges.
+//!
+//! The world advances in steps of `dt_s` (0.1 s). The strategy is called every period with
+//! what the aircraft would know (its own state, the obstacle telemetry received so far, a
+//! LiDAR scan if it asked for one); its command changes the stack or steers the aircraft.
+//! The run ends when the stack is finished or at the scenario's time limit. The aircraft's
+//! telemetry as sent to the judges (at `judge_rate_hz`) is then scored as they did.
+//!
+//! Everything is reproducible from the scenario's seed, except the measured replan latencies.
+
+use std::time::Instant;
+
+use serde::{Deserialize, Serialize};
+
+use crate::aircraft::{AircraftParams, Autopilot, SteerOverride};
+use crate::geometry::xy;
+use crate::lidar::{cross_sections, scan};
+use crate::mission::ItemKind;
+use crate::scenario::Scenario;
+use crate::scoring::{JudgeReport, judge};
+use crate::strategy::{Command, StrategyKind, View};
+use crate::telemetry::{ObstacleObservation, TelemetryParams, sample_streams};
+
+/// Run parameters. Defaults: the default aircraft, telemetry 2 Hz / 1 m / 5% dropouts,
+/// judges' telemetry 5 Hz, step 0.1 s, track recorded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunConfig {
+    /// Aircraft.
+    pub aircraft: AircraftParams,
+    /// Obstacle telemetry.
+    pub telemetry: TelemetryParams,
+    /// Rate of the aircraft telemetry the judges score, Hz.
+    pub judge_rate_hz: f64,
+    /// Simulation step, seconds.
+    pub dt_s: f64,
+    /// Keep the aircraft's track in the result (for plots).
+    pub record_track: bool,
+}
+
+impl Default for RunConfig {
+    fn default() -> Self {
+        Self {
+            aircraft: AircraftParams::default(),
+            telemetry: TelemetryParams::default(),
+            judge_rate_hz: 5.0,
+            dt_s: 0.1,
+            record_track: true,
+        }
+    }
+}
+
+/// The numbers of one run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunMetrics {
+    /// Judges' sphere score `(fraction not hit)^3`.
+    pub sphere_score: f64,
+    /// Judges' cylinder score.
+    pub cylinder_score: f64,
+    /// Spheres hit / total.
+    pub spheres_hit: usize,
+    /// Spheres in the scenario.
+    pub spheres: usize,
+    /// Cylinders hit.
+    pub cylinders_hit: usize,
+    /// Cylinders in the scenario.
+    pub cylinders: usize,
+    /// Mission waypoints captured within 100 ft.
+    pub waypoints_captured: usize,
+    /// Mission waypoints.
+    pub waypoints: usize,
+    /// Whether the stack was finished before the time limit.
+    pub completed: bool,
+    /// Flight time, seconds.
+    pub mission_time_s: f64,
+    /// Horizontal path flown, metres.
+    pub path_length_m: f64,
+    /// Flown length / straight mission legs.
+    pub path_ratio: f64,
+    /// Smallest clearance to any obstacle surface, metres (negative inside).
+    pub min_clearance_m: f64,
+    /// Avoid waypoints the aircraft actually flew to.
+    pub waypoints_added: usize,
+    /// Seconds outside the fly zone or its altitude band.
+    pub boundary_violation_s: f64,
+    /// Separate excursions out of the fly zone.
+    pub boundary_excursions: usize,
+    /// Strategy calls.
+    pub replans: usize,
+    /// Median strategy latency, ms (wall clock: not reproducible).
+    pub replan_p50_ms: f64,
+    /// 95th percentile, ms.
+    pub replan_p95_ms: f64,
+    /// Maximum, ms.
+    pub replan_max_ms: f64,
+}
+
+/// A run's result.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunResult {
+    /// Scenario seed.
+    pub seed: u64,
+    /// Strategy.
+    pub strategy: StrategyKind,
+    /// Numbers.
+    pub metrics: RunMetrics,
+    /// What the judges saw.
+    pub judge: JudgeReport,
+    /// Aircraft track `[t, x, y, z]` every step (empty unless recorded).
+    pub track: Vec<[f64; 4]>,
+    /// Strategy latencies, ms.
+    #[serde(skip)]
+    pub latencies_ms: Vec<f64>,
+}
+
+/// Percentile by nearest rank of an unsorted slice (0 for an empty one).
+pub fn percentile(v: &[f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let k = ((q * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1;
+    s[k]
+}
+
+/// Runs `strategy` on `scenario` with precomputed telemetry `streams` (see
+/// [`crate::telemetry::sample_streams`]).
+pub fn run_with_streams(
+    scenario: &Scenario,
+    streams: &[Vec<ObstacleObservation>],
+    strategy: StrategyKind,
+    cfg: &RunConfig,
+) -> RunResult {
+    let m = &scenario.mission;
+    let mut stack = m.initial_stack();
+    let first = stack.target().map_or(xy(m.start_m), |t| xy(t.p_m));
+    let mut ap = Autopilot::new(cfg.aircraft, m.start_m, first);
+    let mut strat = strategy.build(scenario.seed ^ 0x5EED_0F5A);
+    let lidar = strat.lidar();
+    let period = strat.period_s();
+    let cylinders: Vec<_> = m
+        .cylinders
+        .iter()
+        .map(|c| (c.center_m, c.radius_m, c.top_m))
+        .collect();
+    let mut next_decide = 0.0;
+    let mut received = vec![0usize; streams.len()];
+    let mut latencies_ms = Vec::new();
+    let mut track = Vec::new();
+    let judge_every = ((1.0 / cfg.judge_rate_hz) / cfg.dt_s).round().max(1.0) as usize;
+    let mut judge_tel = vec![(0.0, ap.state.p_m)];
+    let mut path_len = 0.0;
+    let mut added = 0;
+    let mut step = 0usize;
+    if cfg.record_track {
+        track.push([0.0, ap.state.p_m[0], ap.state.p_m[1], ap.state.p_m[2]]);
+    }
+    while ap.state.t_s < scenario.duration_s - 1e-9 && stack.target().is_some() {
+        let t = ap.state.t_s;
+        if t >= next_decide - 1e-9 {
+            next_decide += period;
+            for (i, s) in streams.iter().enumerate() {
+                received[i] = s.partition_point(|o| o.t_s <= t + 1e-9);
+            }
+            let tracks: Vec<&[ObstacleObservation]> = streams
+                .iter()
+                .zip(&received)
+                .map(|(s, n)| &s[..*n])
+                .collect();
+            let sc = lidar.map(|lp| {
+                let spheres: Vec<([f64; 3], f64)> = scenario
+                    .spheres
+                    .iter()
+                    .map(|s| (s.track.at(t), s.radius_m))
+                    .collect();
+                let secs = cross_sections(ap.state.p_m[2], &cylinders, &spheres);
+                scan(&lp, xy(ap.state.p_m), ap.state.heading_rad, &secs)
+            });
+            let view = View {
+                t_s: t,
+                own: ap.state,
+                aircraft: &cfg.aircraft,
+                mission: m,
+                stack: &stack,
+                tracks: &tracks,
+                scan: sc.as_ref(),
+            };
+            let t0 = Instant::now();
+            let cmd = strat.decide(&view);
+            latencies_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+            match cmd {
+                Command::Keep => {}
+                Command::Replace(s) => ap.replace_stack(&mut stack, s),
+                Command::Steer {
+                    turn_rate_rad_s,
+                    hold_s,
+                } => {
+                    ap.steer = Some(SteerOverride {
+                        turn_rate_rad_s,
+                        until_s: t + hold_s,
+                    });
+                }
+            }
+        }
+        let before = xy(ap.state.p_m);
+        for idx in ap.step(&mut stack, cfg.dt_s) {
+            if stack.items[idx].kind == ItemKind::Avoid {
+                added += 1;
+            }
+        }
+        path_len += crate::geometry::dist(before, xy(ap.state.p_m));
+        step += 1;
+        if step.is_multiple_of(judge_every) {
+            judge_tel.push((ap.state.t_s, ap.state.p_m));
+        }
+        if cfg.record_track {
+            track.push([
+                ap.state.t_s,
+                ap.state.p_m[0],
+                ap.state.p_m[1],
+                ap.state.p_m[2],
+            ]);
+        }
+    }
+    if judge_tel.last().is_some_and(|l| l.0 < ap.state.t_s) {
+        judge_tel.push((ap.state.t_s, ap.state.p_m));
+    }
+    let jr = judge(&judge_tel, scenario, m);
+    let straight = m.straight_length_m();
+    let metrics = RunMetrics {
+        sphere_score: jr.sphere_score,
+        cylinder_score: jr.cylinder_score,
+        spheres_hit: jr.sphere_hits.iter().filter(|h| **h).count(),
+        spheres: jr.sphere_hits.len(),
+        cylinders_hit: jr.cylinder_hits.iter().filter(|h| **h).count(),
+        cylinders: jr.cylinder_hits.len(),
+        waypoints_captured: jr.waypoints_captured.iter().filter(|h| **h).count(),
+        waypoints: jr.waypoints_captured.len(),
+        completed: stack.target().is_none(),
+        mission_time_s: ap.state.t_s,
+        path_length_m: path_len,
+        path_ratio: if straight > 0.0 {
+            path_len / straight
+        } else {
+            1.0
+        },
+        min_clearance_m: jr.min_clearance_m,
+        waypoints_added: added,
+        boundary_violation_s: jr.boundary_violation_s,
+        boundary_excursions: jr.boundary_excursions,
+        replans: latencies_ms.len(),
+        replan_p50_ms: percentile(&latencies_ms, 0.5),
+        replan_p95_ms: percentile(&latencies_ms, 0.95),
+        replan_max_ms: latencies_ms.iter().copied().fold(0.0, f64::max),
+    };
+    RunResult {
+        seed: scenario.seed,
+        strategy,
+        metrics,
+        judge: jr,
+        track,
+        latencies_ms,
+    }
+}
+
+/// Runs `strategy` on `scenario`, drawing the telemetry from the scenario's seed.
+pub fn run(scenario: &Scenario, strategy: StrategyKind, cfg: &RunConfig) -> RunResult {
+    let streams = sample_streams(scenario, &cfg.telemetry);
+    run_with_streams(scenario, &streams, strategy, cfg)
+}
+
+/// Telemetry parameters re-exported for callers building a [`RunConfig`].
+pub type Telemetry = TelemetryParams;

@@ -1,0 +1,172 @@
+//! Strategy plug-in point: what the ground station (or the onboard computer, for the reactive
+//! avoiders) decides from what it would really know.
+//!
+//! A [`Strategy`] is called every [`Strategy::period_s`] with a [`View`]: the aircraft's own
+//! state, the mission, the stack it flies, the obstacle telemetry received so far (noisy,
+//! with dropouts -- never ground truth) and, for strategies that ask for one, a simulated
+//! LiDAR scan. It answers a [`Command`]: keep the stack, replace it, or steer directly for a
+//! while.
+
+use serde::{Deserialize, Serialize};
+
+use crate::aircraft::{AircraftParams, AircraftState};
+use crate::lidar::{LidarParams, Scan};
+use crate::mission::{Mission, Stack};
+use crate::telemetry::ObstacleObservation;
+
+pub mod bisection;
+pub mod constant_velocity;
+pub mod insertion;
+pub mod planner_adapter;
+pub mod reactive;
+pub mod route;
+pub mod tangent;
+
+/// What a strategy may look at.
+#[derive(Debug, Clone, Copy)]
+pub struct View<'a> {
+    /// Mission time, seconds.
+    pub t_s: f64,
+    /// The aircraft's own state (its autopilot knows it).
+    pub own: AircraftState,
+    /// Aircraft performance.
+    pub aircraft: &'a AircraftParams,
+    /// The mission (fly zone, waypoints, cylinders: all given by the judges up front).
+    pub mission: &'a Mission,
+    /// The stack being flown.
+    pub stack: &'a Stack,
+    /// Per moving obstacle, the telemetry received up to `t_s`, in time order.
+    pub tracks: &'a [&'a [ObstacleObservation]],
+    /// The latest LiDAR scan, when the strategy asked for a scanner.
+    pub scan: Option<&'a Scan>,
+}
+
+/// A strategy's answer.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// Keep flying the stack.
+    Keep,
+    /// Upload a new stack.
+    Replace(Stack),
+    /// Fly this turn rate (rad/s, counter-clockwise positive) for `hold_s`, then resume the stack.
+    Steer {
+        /// Commanded turn rate, rad/s.
+        turn_rate_rad_s: f64,
+        /// How long, seconds.
+        hold_s: f64,
+    },
+}
+
+/// A decision procedure run in closed loop.
+pub trait Strategy: Send {
+    /// Replanning period, seconds.
+    fn period_s(&self) -> f64;
+    /// The scanner this strategy needs, if any.
+    fn lidar(&self) -> Option<LidarParams> {
+        None
+    }
+    /// Decides from what the aircraft would know.
+    fn decide(&mut self, view: &View<'_>) -> Command;
+}
+
+/// The predictor stage a Monte Carlo bisection run is forced to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ForcedStage {
+    /// Stage 1, a growing disc.
+    NoFly,
+    /// Stage 2, uniform turn rates.
+    Random,
+    /// Stage 3, the obstacle's own turn histogram.
+    Advanced,
+    /// Stage 4, histogram conditioned on the previous turn.
+    Memory,
+}
+
+/// The strategies the simulator knows, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StrategyKind {
+    /// Fly the mission's waypoints unchanged.
+    None,
+    /// The planner's seed 004 waypoint insertion around cylinders (static pre-pass only).
+    Insertion,
+    /// Shortest path around cylinders on a tangent graph (static only).
+    Tangent,
+    /// Tangent graph plus detours around constant-velocity extrapolations of the spheres.
+    ConstantVelocity,
+    /// Monte Carlo bisection with the predictor forced to one stage.
+    Bisection(ForcedStage),
+    /// Monte Carlo bisection with automatic staging.
+    BisectionAuto,
+    /// Tangent graph plus the onboard offset algorithm and Bezier pilot on a LiDAR.
+    ReactiveOffset,
+    /// Tangent graph plus the onboard sector avoider on a LiDAR.
+    ReactiveSectors,
+}
+
+impl StrategyKind {
+    /// Every strategy, in report order.
+    pub const ALL: [StrategyKind; 11] = [
+        Self::None,
+        Self::Insertion,
+        Self::Tangent,
+        Self::ConstantVelocity,
+        Self::Bisection(ForcedStage::NoFly),
+        Self::Bisection(ForcedStage::Random),
+        Self::Bisection(ForcedStage::Advanced),
+        Self::Bisection(ForcedStage::Memory),
+        Self::BisectionAuto,
+        Self::ReactiveOffset,
+        Self::ReactiveSectors,
+    ];
+
+    /// Command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Insertion => "insertion",
+            Self::Tangent => "tangent",
+            Self::ConstantVelocity => "cv",
+            Self::Bisection(ForcedStage::NoFly) => "mc-nofly",
+            Self::Bisection(ForcedStage::Random) => "mc-random",
+            Self::Bisection(ForcedStage::Advanced) => "mc-advanced",
+            Self::Bisection(ForcedStage::Memory) => "mc-memory",
+            Self::BisectionAuto => "mc-auto",
+            Self::ReactiveOffset => "offset",
+            Self::ReactiveSectors => "sectors",
+        }
+    }
+
+    /// Parses a command-line name.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == s)
+    }
+
+    /// Builds a fresh instance for one run; `seed` feeds every random choice it makes.
+    pub fn build(self, seed: u64) -> Box<dyn Strategy> {
+        match self {
+            Self::None => Box::new(Unchanged),
+            Self::Insertion => Box::new(insertion::Insertion::default()),
+            Self::Tangent => Box::new(tangent::Tangent::default()),
+            Self::ConstantVelocity => Box::new(constant_velocity::ConstantVelocity::default()),
+            Self::Bisection(stage) => Box::new(bisection::Bisection::new(Some(stage), seed)),
+            Self::BisectionAuto => Box::new(bisection::Bisection::new(None, seed)),
+            Self::ReactiveOffset => Box::new(reactive::Offset::default()),
+            Self::ReactiveSectors => Box::new(reactive::Sectors::default()),
+        }
+    }
+}
+
+/// The "none" strategy.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Unchanged;
+
+impl Strategy for Unchanged {
+    fn period_s(&self) -> f64 {
+        1e9
+    }
+    fn decide(&mut self, _view: &View<'_>) -> Command {
+        Command::Keep
+    }
+}

@@ -1,0 +1,202 @@
+//! Hand-written SVG plots of a run: fly zone, waypoints, cylinders (solid when they matter at
+//! some mission altitude, dashed otherwise), the spheres' true tracks with their final
+//! positions, the aircraft's track, and hits marked in red.
+
+use std::fmt::Write;
+
+use crate::geometry::xy;
+use crate::run::RunResult;
+use crate::scenario::Scenario;
+
+const COLORS: [&str; 10] = [
+    "#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
+    "#17becf", "#d62728",
+];
+
+/// An SVG document (about 800 px wide) of `run` on `scenario`.
+pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
+    let m = &scenario.mission;
+    let (mut lo, mut hi) = m.bounds_m();
+    for p in &run.track {
+        lo = [lo[0].min(p[1]), lo[1].min(p[2])];
+        hi = [hi[0].max(p[1]), hi[1].max(p[2])];
+    }
+    let pad = 60.0;
+    let (w_m, h_m) = (hi[0] - lo[0] + 2.0 * pad, hi[1] - lo[1] + 2.0 * pad);
+    let px = 800.0;
+    let k = px / w_m;
+    let height = h_m * k;
+    // ENU -> SVG (y down)
+    let tx = |x: f64| (x - lo[0] + pad) * k;
+    let ty = |y: f64| (hi[1] + pad - y) * k;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{px:.0}" height="{:.0}" viewBox="0 0 {px:.0} {:.0}" font-family="sans-serif" font-size="12">"#,
+        height + 40.0,
+        height + 40.0
+    );
+    let _ = writeln!(s, r##"<rect width="100%" height="100%" fill="#ffffff"/>"##);
+    let zone: Vec<String> = m
+        .fly_zone_m
+        .iter()
+        .map(|p| format!("{:.1},{:.1}", tx(p[0]), ty(p[1])))
+        .collect();
+    let _ = writeln!(
+        s,
+        r##"<polygon points="{}" fill="#f4fbf4" stroke="#2e7d32" stroke-width="2"/>"##,
+        zone.join(" ")
+    );
+    let min_alt = m
+        .waypoints_m
+        .iter()
+        .map(|w| w[2])
+        .fold(f64::INFINITY, f64::min);
+    for (i, c) in m.cylinders.iter().enumerate() {
+        let hit = run.judge.cylinder_hits.get(i).copied().unwrap_or(false);
+        let dash = if c.top_m < min_alt {
+            r#" stroke-dasharray="4 3""#
+        } else {
+            ""
+        };
+        let _ = writeln!(
+            s,
+            r##"<circle cx="{:.1}" cy="{:.1}" r="{:.1}" fill="{}" fill-opacity="0.35" stroke="{}" stroke-width="{}"{dash}/>"##,
+            tx(c.center_m[0]),
+            ty(c.center_m[1]),
+            c.radius_m * k,
+            if hit { "#e53935" } else { "#9e9e9e" },
+            if hit { "#b71c1c" } else { "#424242" },
+            if hit { 3 } else { 1 },
+        );
+        let _ = writeln!(
+            s,
+            r##"<text x="{:.1}" y="{:.1}" fill="#424242">top {:.0} m</text>"##,
+            tx(c.center_m[0]) - 20.0,
+            ty(c.center_m[1]) + 4.0,
+            c.top_m
+        );
+    }
+    let t_end = run.track.last().map_or(scenario.duration_s, |p| p[0]);
+    for (i, sp) in scenario.spheres.iter().enumerate() {
+        let col = COLORS[i % COLORS.len()];
+        let hit = run.judge.sphere_hits.get(i).copied().unwrap_or(false);
+        let n = (t_end / 1.0).ceil() as usize;
+        let pts: Vec<String> = (0..=n)
+            .map(|j| {
+                let p = sp.track.at(j as f64);
+                format!("{:.1},{:.1}", tx(p[0]), ty(p[1]))
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            r#"<polyline points="{}" fill="none" stroke="{col}" stroke-width="1" stroke-opacity="0.6"/>"#,
+            pts.join(" ")
+        );
+        let end = sp.track.at(t_end);
+        let _ = writeln!(
+            s,
+            r##"<circle cx="{:.1}" cy="{:.1}" r="{:.1}" fill="{col}" fill-opacity="0.15" stroke="{}" stroke-width="{}"/>"##,
+            tx(end[0]),
+            ty(end[1]),
+            sp.radius_m * k,
+            if hit { "#b71c1c" } else { col },
+            if hit { 3 } else { 1 },
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}" fill="{col}">{} {}</text>"#,
+            tx(end[0]) + 4.0,
+            ty(end[1]) - 4.0,
+            i,
+            sp.behaviour.kind().name()
+        );
+    }
+    // mission legs
+    let legs: Vec<String> = std::iter::once(m.start_m)
+        .chain(m.waypoints_m.iter().copied())
+        .map(|p| format!("{:.1},{:.1}", tx(p[0]), ty(p[1])))
+        .collect();
+    let _ = writeln!(
+        s,
+        r##"<polyline points="{}" fill="none" stroke="#000" stroke-width="1" stroke-dasharray="6 4"/>"##,
+        legs.join(" ")
+    );
+    // aircraft track, red where inside some obstacle at that time
+    let track: Vec<String> = run
+        .track
+        .iter()
+        .map(|p| format!("{:.1},{:.1}", tx(p[1]), ty(p[2])))
+        .collect();
+    let _ = writeln!(
+        s,
+        r##"<polyline points="{}" fill="none" stroke="#0d47a1" stroke-width="2"/>"##,
+        track.join(" ")
+    );
+    for p in &run.track {
+        let q = [p[1], p[2], p[3]];
+        let in_sphere = scenario.spheres.iter().any(|sp| {
+            let c = sp.track.at(p[0]);
+            ((q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2) + (q[2] - c[2]).powi(2)).sqrt()
+                <= sp.radius_m
+        });
+        let in_cyl = m
+            .cylinders
+            .iter()
+            .any(|c| crate::scoring::cylinder_clearance_m(q, c) <= 0.0);
+        if in_sphere || in_cyl {
+            let _ = writeln!(
+                s,
+                r##"<circle cx="{:.1}" cy="{:.1}" r="3" fill="#e53935"/>"##,
+                tx(q[0]),
+                ty(q[1])
+            );
+        }
+    }
+    for (i, w) in m.waypoints_m.iter().enumerate() {
+        let got = run
+            .judge
+            .waypoints_captured
+            .get(i)
+            .copied()
+            .unwrap_or(false);
+        let _ = writeln!(
+            s,
+            r##"<circle cx="{:.1}" cy="{:.1}" r="{:.1}" fill="none" stroke="{}" stroke-width="1.5"/><text x="{:.1}" y="{:.1}">{} ({:.0} m)</text>"##,
+            tx(w[0]),
+            ty(w[1]),
+            crate::scoring::WAYPOINT_CAPTURE_M * k,
+            if got { "#2e7d32" } else { "#e53935" },
+            tx(w[0]) + 6.0,
+            ty(w[1]) + 14.0,
+            i,
+            w[2]
+        );
+    }
+    let st = xy(m.start_m);
+    let _ = writeln!(
+        s,
+        r##"<rect x="{:.1}" y="{:.1}" width="8" height="8" fill="#000"/>"##,
+        tx(st[0]) - 4.0,
+        ty(st[1]) - 4.0
+    );
+    let mm = &run.metrics;
+    let _ = writeln!(
+        s,
+        r##"<text x="8" y="{:.0}" font-size="14">{} seed {} / {}: spheres hit {}/{}, cylinders hit {}/{}, waypoints {}/{}, path ratio {:.2}, min clearance {:.1} m</text>"##,
+        height + 25.0,
+        scenario.family.name(),
+        scenario.seed,
+        run.strategy.name(),
+        mm.spheres_hit,
+        mm.spheres,
+        mm.cylinders_hit,
+        mm.cylinders,
+        mm.waypoints_captured,
+        mm.waypoints,
+        mm.path_ratio,
+        mm.min_clearance_m
+    );
+    s.push_str("</svg>\n");
+    s
+}

@@ -1,0 +1,75 @@
+//! Closed-loop behaviour of the simulator as a whole.
+
+use sim::run::{RunConfig, run};
+use sim::scenario::{Family, ScenarioParams, generate};
+use sim::strategy::StrategyKind;
+
+fn strip_latency(mut r: sim::run::RunResult) -> sim::run::RunResult {
+    r.latencies_ms.clear();
+    r.metrics.replan_p50_ms = 0.0;
+    r.metrics.replan_p95_ms = 0.0;
+    r.metrics.replan_max_ms = 0.0;
+    r
+}
+
+#[test]
+fn the_same_seed_reproduces_a_run_exactly() {
+    let p = ScenarioParams::default();
+    for k in [
+        StrategyKind::None,
+        StrategyKind::ConstantVelocity,
+        StrategyKind::BisectionAuto,
+    ] {
+        let a = strip_latency(run(
+            &generate(Family::Mixed, 11, &p),
+            k,
+            &RunConfig::default(),
+        ));
+        let b = strip_latency(run(
+            &generate(Family::Mixed, 11, &p),
+            k,
+            &RunConfig::default(),
+        ));
+        assert_eq!(a, b, "{}", k.name());
+        assert!(!a.track.is_empty());
+    }
+}
+
+#[test]
+fn an_unobstructed_mission_is_flown_and_every_waypoint_captured() {
+    // static family, cylinders removed: nothing to hit, every waypoint within 100 ft
+    let mut s = generate(Family::Static, 3, &ScenarioParams::default());
+    s.mission.cylinders.clear();
+    let r = run(&s, StrategyKind::None, &RunConfig::default());
+    assert!(r.metrics.completed);
+    assert_eq!(r.metrics.waypoints_captured, r.metrics.waypoints);
+    assert_eq!(r.metrics.sphere_score, 1.0);
+    assert_eq!(r.metrics.cylinder_score, 1.0);
+    // turns at the waypoints add a little to the straight legs, never less than them
+    assert!(
+        r.metrics.path_ratio >= 1.0 && r.metrics.path_ratio < 1.6,
+        "{}",
+        r.metrics.path_ratio
+    );
+}
+
+#[test]
+fn the_tangent_graph_hits_fewer_cylinders_than_flying_straight() {
+    // Over 12 static scenarios: flying the legs straight hits cylinders that the tangent
+    // graph goes around (it can still clip one when a waypoint turn overshoots).
+    let p = ScenarioParams::default();
+    let (mut none, mut tangent) = (0, 0);
+    for seed in 0..12 {
+        let s = generate(Family::Static, seed, &p);
+        none += run(&s, StrategyKind::None, &RunConfig::default())
+            .metrics
+            .cylinders_hit;
+        tangent += run(&s, StrategyKind::Tangent, &RunConfig::default())
+            .metrics
+            .cylinders_hit;
+    }
+    assert!(
+        none > 0 && tangent * 2 < none,
+        "none {none}, tangent {tangent}"
+    );
+}
