@@ -417,6 +417,34 @@ mod tests {
         assert_relative_eq!(plan.p1.y_m, 9.6, epsilon = 1e-12);
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+        /// Any valid input: the path starts at the aircraft, ends on the goal line at
+        /// `g + delta`, moves forward monotonically and never strays beyond the applied
+        /// deviation, which respects every limit.
+        #[test]
+        fn paths_run_forward_from_the_aircraft_to_the_goal_line(
+            d in -200.0f64..200.0,
+            l in 0.1f64..200.0,
+            goal in 1.0f64..500.0,
+            max_dev in 0.0f64..100.0,
+            funnel in 0.0f64..2.0,
+        ) {
+            let p = PilotParams::default().with_max_deviation_m(max_dev).with_funnel_ratio(funnel);
+            let plan = pilot_plan(&PilotInput::new(d, l, goal), &p).unwrap();
+            let a = plan.deviation_m.abs();
+            proptest::prop_assert!(a <= max_dev + 1e-12 && a <= funnel * goal + 1e-12 && a <= d.abs());
+            proptest::prop_assert!(plan.deviation_m == 0.0 || plan.deviation_m.signum() == d.signum());
+            let pts = plan.sample(12);
+            proptest::prop_assert_eq!(pts[0], PathPoint::new(0.0, 0.0));
+            let end = pts[pts.len() - 1];
+            proptest::prop_assert!(end.x_m.abs() < 1e-9 && (end.y_m - goal).abs() < 1e-9 * goal);
+            proptest::prop_assert!(pts.windows(2).all(|w| w[1].y_m > w[0].y_m));
+            proptest::prop_assert!(pts.iter().all(|q| q.x_m.abs() <= a + 1e-12));
+        }
+    }
+
     #[test]
     fn bad_input_is_an_error() {
         let p = PilotParams::default();
