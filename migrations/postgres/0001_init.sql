@@ -6,10 +6,12 @@ CREATE TABLE missions (
     body TEXT NOT NULL
 );
 
+-- Telemetry rows reference their mission, so an insert for an unknown (or concurrently
+-- deleted) mission fails inside the insert itself.
 -- Moving-obstacle observations; (mission, obstacle, time) identifies one, so a resend is
 -- a duplicate. Times are Unix microseconds.
 CREATE TABLE obstacle_observations (
-    mission_id TEXT NOT NULL,
+    mission_id TEXT NOT NULL REFERENCES missions (id),
     obstacle_id TEXT NOT NULL,
     t_us BIGINT NOT NULL,
     lat_deg DOUBLE PRECISION NOT NULL,
@@ -21,7 +23,7 @@ CREATE TABLE obstacle_observations (
 );
 
 CREATE TABLE aircraft_telemetry (
-    mission_id TEXT NOT NULL,
+    mission_id TEXT NOT NULL REFERENCES missions (id),
     t_us BIGINT NOT NULL,
     lat_deg DOUBLE PRECISION NOT NULL,
     lon_deg DOUBLE PRECISION NOT NULL,

@@ -184,13 +184,12 @@ async fn post_obstacles(
             let batch: ObservationBatch = from_value(value)?;
             validate_batch(&batch, received)?
         };
-    if !state.store.mission_exists(&id).await? {
-        return Err(ApiError::not_found("mission", id));
-    }
+    // The insert itself answers "no such mission" (a foreign key), in one round trip.
     let counts = state
         .store
         .insert_observations(&id, &rows, received)
-        .await?;
+        .await?
+        .ok_or_else(|| ApiError::not_found("mission", &id))?;
     Ok((StatusCode::ACCEPTED, axum::Json(counts.into())))
 }
 
@@ -447,10 +446,11 @@ async fn post_telemetry(
     if !errs.is_empty() {
         return Err(ApiError::Validation(errs));
     }
-    if !state.store.mission_exists(&id).await? {
-        return Err(ApiError::not_found("mission", id));
-    }
-    let counts = state.store.insert_telemetry(&id, &rows, received).await?;
+    let counts = state
+        .store
+        .insert_telemetry(&id, &rows, received)
+        .await?
+        .ok_or_else(|| ApiError::not_found("mission", &id))?;
     Ok((StatusCode::ACCEPTED, axum::Json(counts.into())))
 }
 

@@ -91,7 +91,13 @@ pub enum OpenError {
     Migrate(#[source] sqlx::migrate::MigrateError),
 }
 
-const SQLITE_PRAGMAS: &str = "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL; PRAGMA busy_timeout=10000; PRAGMA foreign_keys=ON;";
+// Checkpoints run in a background task (`checkpoint_loop`), not inside a writer's commit,
+// so that a commit never stalls behind copying the WAL into the database file.
+const SQLITE_PRAGMAS: &str = "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL; PRAGMA busy_timeout=10000; \
+     PRAGMA foreign_keys=ON; PRAGMA wal_autocheckpoint=0;";
+
+/// How often the SQLite WAL is checkpointed into the database file.
+const CHECKPOINT_PERIOD: Duration = Duration::from_millis(500);
 
 impl Store {
     /// Opens (creating a SQLite file if needed) and migrates the database at `url`.
@@ -155,6 +161,9 @@ impl Store {
             write,
         };
         store.migrate().await?;
+        if backend == Backend::Sqlite {
+            tokio::spawn(checkpoint_loop(store.read.clone()));
+        }
         Ok(store)
     }
 
@@ -273,15 +282,33 @@ impl Store {
 
     // ---- telemetry ---------------------------------------------------------------------
 
-    /// Stores obstacle observations; a row whose (mission, obstacle, time) is already
-    /// stored is a duplicate and is not stored again (the first one wins).
+    /// Stores obstacle observations, all or none; a row whose (mission, obstacle, time) is
+    /// already stored is a duplicate and is not stored again (the first one wins).
+    /// `Ok(None)` when the mission does not exist.
     #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]
     pub async fn insert_observations(
         &self,
         mission_id: &str,
         rows: &[ObservationRow],
         received_at_s: f64,
+    ) -> Result<Option<InsertCounts>, sqlx::Error> {
+        missing_mission(
+            self.insert_observations_inner(mission_id, rows, received_at_s)
+                .await,
+        )
+    }
+
+    async fn insert_observations_inner(
+        &self,
+        mission_id: &str,
+        rows: &[ObservationRow],
+        received_at_s: f64,
     ) -> Result<InsertCounts, sqlx::Error> {
+        if rows.is_empty() {
+            // Still answer 404 for an unknown mission.
+            return self.empty_batch(mission_id).await;
+        }
+        let mut tx = self.write.begin().await?;
         let mut accepted = 0;
         // Keep statements to a bounded number of parameters (SQLite's default limit is
         // 32766; PostgreSQL's 65535).
@@ -304,8 +331,9 @@ impl Store {
                     .bind(r.radius_m)
                     .bind(to_us(received_at_s));
             }
-            accepted += q.execute(&self.write).await?.rows_affected();
+            accepted += q.execute(&mut *tx).await?.rows_affected();
         }
+        tx.commit().await?;
         Ok(InsertCounts {
             accepted,
             duplicate: rows.len() as u64 - accepted,
@@ -344,14 +372,31 @@ impl Store {
             .collect()
     }
 
-    /// Stores aircraft telemetry; a sample at an already stored time is a duplicate.
+    /// Stores aircraft telemetry, all or none; a sample at an already stored time is a
+    /// duplicate. `Ok(None)` when the mission does not exist.
     #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]
     pub async fn insert_telemetry(
         &self,
         mission_id: &str,
         rows: &[TelemetryRow],
         received_at_s: f64,
+    ) -> Result<Option<InsertCounts>, sqlx::Error> {
+        missing_mission(
+            self.insert_telemetry_inner(mission_id, rows, received_at_s)
+                .await,
+        )
+    }
+
+    async fn insert_telemetry_inner(
+        &self,
+        mission_id: &str,
+        rows: &[TelemetryRow],
+        received_at_s: f64,
     ) -> Result<InsertCounts, sqlx::Error> {
+        if rows.is_empty() {
+            return self.empty_batch(mission_id).await;
+        }
+        let mut tx = self.write.begin().await?;
         let mut accepted = 0;
         for chunk in rows.chunks(500) {
             let sql = values_sql(
@@ -372,12 +417,22 @@ impl Store {
                     .bind(r.speed_mps)
                     .bind(to_us(received_at_s));
             }
-            accepted += q.execute(&self.write).await?.rows_affected();
+            accepted += q.execute(&mut *tx).await?.rows_affected();
         }
+        tx.commit().await?;
         Ok(InsertCounts {
             accepted,
             duplicate: rows.len() as u64 - accepted,
         })
+    }
+
+    /// An empty batch stores nothing but still fails like an insert for a missing mission.
+    async fn empty_batch(&self, mission_id: &str) -> Result<InsertCounts, sqlx::Error> {
+        if self.mission_exists(mission_id).await? {
+            Ok(InsertCounts::default())
+        } else {
+            Err(sqlx::Error::RowNotFound)
+        }
     }
 
     /// A mission's aircraft telemetry ordered by time; `last` keeps only the newest n.
@@ -410,6 +465,39 @@ impl Store {
             .collect::<Result<_, sqlx::Error>>()?;
         out.reverse();
         Ok(out)
+    }
+}
+
+/// Copies the SQLite WAL into the database file in the background (PASSIVE: it never
+/// blocks the writer or readers), keeping the WAL short.
+async fn checkpoint_loop(pool: AnyPool) {
+    let mut tick = tokio::time::interval(CHECKPOINT_PERIOD);
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        tick.tick().await;
+        if pool.is_closed() {
+            return;
+        }
+        if let Err(e) = sqlx::query("PRAGMA wal_checkpoint(PASSIVE)")
+            .execute(&pool)
+            .await
+        {
+            tracing::warn!(error = %e, "WAL checkpoint failed");
+        }
+    }
+}
+
+/// `Ok(None)` for an insert that failed because its mission does not exist.
+fn missing_mission<T>(r: Result<T, sqlx::Error>) -> Result<Option<T>, sqlx::Error> {
+    match r {
+        Ok(v) => Ok(Some(v)),
+        Err(sqlx::Error::Database(e))
+            if e.kind() == sqlx::error::ErrorKind::ForeignKeyViolation =>
+        {
+            Ok(None)
+        }
+        Err(sqlx::Error::RowNotFound) => Ok(None),
+        Err(e) => Err(e),
     }
 }
 
