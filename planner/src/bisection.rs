@@ -3,10 +3,11 @@
 //!
 //! For a leg `A -> B` flown from time `t_A`:
 //! 1. five turning choices `C_k = M + k * delta * n`, `k = -2..=2`, on the perpendicular
-//!    bisector of `AB` (`M` the midpoint, `n` the left normal). `delta` is 20% of the leg,
-//!    widened so that the outer choices clear the cylinders blocking the leg and the
-//!    dynamic risk seen across the bisector at the middle time. Choices outside the fly
-//!    zone are discarded.
+//!    bisector of `AB` (`M` the midpoint, `n` the left normal). `delta` is scaled to what
+//!    is in the way: the offset at `C` that clears the cylinders blocking the leg and the
+//!    highest dynamic risk found along it (probed on the aircraft's clock, then across
+//!    the leg there), at least 5% of the leg; 20% of the leg when nothing measurable is in
+//!    the way. Choices outside the fly zone are discarded.
 //! 2. For each choice, `S` sampled paths `A -> C -> B` of equidistant points (`n` per half),
 //!    each interior point pushed along the half's normal by a normal deviate
 //!    `sigma * z`, `z ~ N(0, 1)` clamped to `[-2, 2]`, tapered by `sin(pi i / n)` so the
@@ -46,6 +47,9 @@ use crate::turn::fillet_tangent_m;
 /// Number of turning choices per bisection (seed 002: five).
 pub const CHOICES: usize = 5;
 
+/// Probe points along a leg (and across it) when sizing the choices.
+const PROBES: usize = 16;
+
 /// Bisection parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BisectionParams {
@@ -59,7 +63,7 @@ pub struct BisectionParams {
     pub resolution_m: f64,
     /// Points per half of a sampled path. Default 8.
     pub points_per_half: usize,
-    /// Score per metre of path length (in metres of exposure). Default 0.01.
+    /// Score per metre of path length (in metres of exposure). Default 0.05.
     pub length_weight: f64,
     /// Score of one hard violation (cylinder buffer, fly zone). Default 10 000.
     pub hard_penalty: f64,
@@ -77,7 +81,7 @@ impl Default for BisectionParams {
             max_depth: 3,
             resolution_m: 60.0,
             points_per_half: 8,
-            length_weight: 0.01,
+            length_weight: 0.05,
             hard_penalty: 10_000.0,
             turn_penalty: 200.0,
             threat_epsilon: 1e-3,
@@ -222,36 +226,60 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
     }
     let n = perp(u);
     let m = lerp(a, b, 0.5);
-    let t_m = t_a + 0.5 * l / env.speed_mps;
 
-    // Choice spacing: 20% of the leg, widened for what is in the way.
-    let mut delta: f64 = 0.2 * l;
+    // Choice spacing, scaled to what is in the way: the offset at C that the path
+    // A -> C -> B needs to clear each obstacle. A point at fraction f of the leg moves by
+    // offset_C * min(f, 1 - f) / 0.5, so an obstacle near an end needs a larger offset
+    // at C (capped by taking f >= 0.1). The +-1 choices get that offset, the +-2 choices
+    // twice it; with nothing measurable in the way, 20% of the leg.
+    let gain = |f: f64| 0.5 / f.min(1.0 - f).max(0.1);
+    let mut need: f64 = 0.0;
     for c in env.cylinders.iter().filter(|c| c.matters_at(env.alt_m)) {
-        let rb = c.radius_m * (1.0 + 2.0 * env.buffer_fraction);
         let d_line = dist_point_segment(c.center_m, a, b);
-        if d_line < rb {
-            let off = (sub(c.center_m, m)[0] * n[0] + sub(c.center_m, m)[1] * n[1]).abs();
-            delta = delta.max((rb + off) / 2.0);
+        if d_line < c.radius_m * (1.0 + env.buffer_fraction) {
+            let rb2 = c.radius_m * (1.0 + 2.0 * env.buffer_fraction);
+            let f = crate::geometry::closest_t_on_segment(c.center_m, a, b);
+            need = need.max((rb2 + d_line) * gain(f));
         }
     }
-    if t_m <= env.horizon_end_s {
-        let peak = env.risk.risk(m, t_m);
+    if t_a <= env.horizon_end_s {
+        // Where along the leg (on the aircraft's clock) is the risk highest?
+        let (mut peak, mut f_peak) = (0.0, 0.5);
+        for j in 1..PROBES {
+            let f = j as f64 / PROBES as f64;
+            let t = t_a + f * l / env.speed_mps;
+            if t > env.horizon_end_s {
+                break;
+            }
+            let r = env.risk.risk(lerp(a, b, f), t);
+            ctx.out.evaluations += 1;
+            if r > peak {
+                (peak, f_peak) = (r, f);
+            }
+        }
         if peak >= params.threat_epsilon {
+            let p = lerp(a, b, f_peak);
+            let t = t_a + f_peak * l / env.speed_mps;
             let mut clear_at = l;
-            for j in 1..=10 {
-                let o = l * f64::from(j) / 10.0;
-                let rl = env.risk.risk(add(m, scale(n, o)), t_m);
-                let rr = env.risk.risk(add(m, scale(n, -o)), t_m);
+            for j in 1..=PROBES {
+                let o = l * j as f64 / PROBES as f64;
+                let rl = env.risk.risk(add(p, scale(n, o)), t);
+                let rr = env.risk.risk(add(p, scale(n, -o)), t);
                 ctx.out.evaluations += 2;
                 if rl.min(rr) <= 0.1 * peak {
                     clear_at = o;
                     break;
                 }
             }
-            delta = delta.max(clear_at / 2.0);
+            need = need.max(clear_at * gain(f_peak));
         }
     }
-    delta = delta.min(l);
+    let delta = if need > 0.0 {
+        need.max(0.05 * l)
+    } else {
+        0.2 * l
+    }
+    .min(l);
 
     let half = 0.5 * l;
     let np = params.points_per_half.max(2);

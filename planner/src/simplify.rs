@@ -14,6 +14,12 @@ use crate::geometry::{Point, dist};
 /// Consecutive rejected shortcuts before the scan from one point stops.
 const PATIENCE: usize = 4;
 
+/// A shortcut may raise the peak risk by this much (risk well below any safety
+/// threshold is noise for the aircraft, and keeping a waypoint for it costs a turn).
+pub const PEAK_SLACK: f64 = 0.01;
+/// A shortcut may raise the exposure by this much, metres at risk 1.
+pub const EXPOSURE_SLACK_M: f64 = 0.5;
+
 /// Simplifies `points` (first and last kept) flown from `t0_s`.
 pub fn simplify_path(env: &LegEnv<'_>, points: &[Point], t0_s: f64, step_m: f64) -> Vec<Point> {
     let n = points.len();
@@ -47,7 +53,7 @@ pub fn simplify_path(env: &LegEnv<'_>, points: &[Point], t0_s: f64, step_m: f64)
                 false
             } else {
                 let r = env.path_risk(&[points[i], points[j]], t_at[i], step_m);
-                r.peak <= peak + 1e-12 && r.exposure_m <= exp + 1e-9
+                r.peak <= peak + PEAK_SLACK && r.exposure_m <= exp + EXPOSURE_SLACK_M
             };
             if ok {
                 best = j;

@@ -3,8 +3,11 @@
 //!
 //! The aircraft cuts each corner with a circular fillet of radius `R`. A turn by angle
 //! `theta` at a vertex needs a tangent length `R * tan(theta / 2)` along both adjacent
-//! legs; the turn is feasible when, on every leg, the tangent lengths needed at its two
-//! ends fit in the leg's length. A turn of (nearly) 180 degrees is never feasible. At the
+//! legs; the path is flyable when, on every leg, the tangent lengths needed at its two
+//! ends fit in the leg's length. A vertex is flagged when its tangent exceeds its share of
+//! an adjacent leg: half the leg, or the whole leg when the other end does not turn (so no
+//! flag means flyable, and a flag names the vertex to fix). A turn of (nearly) 180 degrees
+//! is never feasible. At the
 //! start, the aircraft flies with a known heading: the first waypoint must lie outside
 //! both turning circles of radius `R` tangent to that heading.
 //!
@@ -66,15 +69,16 @@ pub fn turn_violations(
     {
         bad[0] = true;
     }
-    for i in 0..n - 1 {
-        let len = dist(points[i], points[i + 1]);
-        if tangent[i] + tangent[i + 1] > len + 1e-9 {
-            // Blame the sharper end(s) of the leg.
-            if tangent[i] > 0.0 && i > 0 {
+    // Each turn may use half of an adjacent leg, or all of it when the leg's other end
+    // does not turn: a vertex within its share never conflicts with its neighbours, so a
+    // flagged vertex is the one to fix (and a sharp fixed waypoint does not blame an
+    // inserted neighbour that turns gently).
+    for i in 1..n - 1 {
+        for j in [i - 1, i + 1] {
+            let len = dist(points[i], points[j]);
+            let share = if tangent[j] > 0.0 { 0.5 * len } else { len };
+            if tangent[i] > share + 1e-9 {
                 bad[i] = true;
-            }
-            if tangent[i + 1] > 0.0 && i + 1 < n - 1 {
-                bad[i + 1] = true;
             }
         }
     }
