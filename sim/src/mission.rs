@@ -37,6 +37,32 @@ pub struct Mission {
 }
 
 impl Mission {
+    /// From the planner's mission geometry (the first fly zone is used), starting at
+    /// `start_m` (e.g. the home position at the first waypoint's altitude).
+    pub fn from_planner(m: &planner::Mission, start_m: [f64; 3]) -> Self {
+        let zone = m.fly_zones.first();
+        Self {
+            fly_zone_m: zone.map(|z| z.boundary_m.clone()).unwrap_or_default(),
+            alt_min_m: zone.map_or(0.0, |z| z.alt_min_m),
+            alt_max_m: zone.map_or(f64::INFINITY, |z| z.alt_max_m),
+            start_m,
+            waypoints_m: m
+                .waypoints
+                .iter()
+                .map(|w| [w.p_m[0], w.p_m[1], w.alt_m])
+                .collect(),
+            cylinders: m
+                .cylinders
+                .iter()
+                .map(|c| Cylinder {
+                    center_m: c.center_m,
+                    radius_m: c.radius_m,
+                    top_m: c.top_m,
+                })
+                .collect(),
+        }
+    }
+
     /// Length of the straight mission legs: start -> wp0 -> wp1 -> ... (horizontal metres).
     pub fn straight_length_m(&self) -> f64 {
         let mut prev = xy(self.start_m);
