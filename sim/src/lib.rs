@@ -7,6 +7,7 @@ pub mod behaviour;
 pub mod geometry;
 pub mod lidar;
 pub mod mission;
+pub mod prediction;
 pub mod report;
 pub mod run;
 pub mod scenario;
