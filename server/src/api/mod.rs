@@ -8,9 +8,11 @@ use utoipa_axum::router::OpenApiRouter;
 
 use crate::app::AppState;
 
+pub mod avoid;
 pub mod health;
 pub mod missions;
 pub mod operator;
+pub mod plans;
 pub mod reactive;
 pub mod telemetry;
 
@@ -29,6 +31,8 @@ risk maps, avoidance plans and exports. Errors are RFC 9457 application/problem+
         (name = "missions", description = "Mission upload and retrieval"),
         (name = "telemetry", description = "Obstacle observations and aircraft telemetry"),
         (name = "service", description = "Health, metrics and the API description"),
+        (name = "plans", description = "Avoidance plans: revised waypoint stacks, diffs and exports"),
+        (name = "avoid", description = "Seed 004 waypoint insertion for one leg and one obstacle; stateless"),
         (name = "reactive", description = "Onboard LiDAR avoiders (offset algorithm, Bezier pilot, sectors); stateless"),
     )
 )]
@@ -42,6 +46,8 @@ pub fn router() -> OpenApiRouter<AppState> {
         .merge(telemetry::router())
         .merge(operator::router())
         .merge(reactive::router())
+        .merge(plans::router())
+        .merge(avoid::router())
     // jink:routes -- register each new API module above this line with `.merge(module::router())`
 }
 

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub mod openapi;
+pub mod plan;
 pub mod reactive;
 pub mod serve;
 
@@ -26,6 +27,8 @@ pub enum Command {
     Openapi,
     /// Replay a recorded LiDAR scan file through the reactive avoider loop (offset -> pilot).
     Reactive(reactive::ReactiveArgs),
+    /// Plan offline: print the plan JSON for a mission file and an observations file.
+    Plan(plan::PlanArgs),
     // jink:subcommands -- add a variant here and its arm in `run` below
 }
 
@@ -36,6 +39,7 @@ pub fn run() -> ExitCode {
         Command::Serve(args) => serve::run(args),
         Command::Openapi => openapi::run(),
         Command::Reactive(args) => reactive::run(args),
+        Command::Plan(args) => plan::run(args),
         // jink:dispatch
     }
 }

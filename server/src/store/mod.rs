@@ -16,6 +16,8 @@ use sqlx::{AnyPool, AssertSqlSafe, Executor, Row};
 use crate::mission::Mission;
 use crate::time::{from_us, to_us};
 
+pub mod plans;
+
 /// Which database a store talks to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Backend {
@@ -502,7 +504,7 @@ fn missing_mission<T>(r: Result<T, sqlx::Error>) -> Result<Option<T>, sqlx::Erro
 }
 
 /// Tables whose rows belong to a mission (deleted with it). Later migrations add theirs.
-pub const CHILD_TABLES: &[&str] = &["obstacle_observations", "aircraft_telemetry"];
+pub const CHILD_TABLES: &[&str] = &["obstacle_observations", "aircraft_telemetry", "plans"];
 
 fn decode_mission(body: &str) -> Result<Mission, sqlx::Error> {
     serde_json::from_str(body).map_err(|e| sqlx::Error::Decode(Box::new(e)))

@@ -6,6 +6,7 @@ mod support;
 mod durability;
 mod errors;
 mod missions;
+mod plans;
 mod reactive;
 mod service;
 mod telemetry;

@@ -1,0 +1,879 @@
+//! Plans: `POST /api/v1/missions/{id}/plan` computes a revised waypoint stack with
+//! `planner::plan` (static pre-pass of seed 004 + Monte Carlo bisection of seed 002) and
+//! stores it as the mission's next revision; `GET /api/v1/missions/{id}/plans/{plan_id}`
+//! returns it as JSON, QGC WPL 110 or a QGroundControl `.plan` file.
+//!
+//! The start is the latest aircraft telemetry (else the stack item before the current
+//! index, at the current time). Dynamic risk: the stored obstacle observations of the last
+//! two minutes are fed to a `predictor::Predictor` and its risk map (10 m cells, 1 s slices
+//! over the horizon) is the planner's risk field; with no observations there is no dynamic
+//! risk. Every plan is stored with its inputs (start, base stack, observations, parameters)
+//! and seed, so [`compute`] on the stored inputs replays it (bit for bit unless the deadline
+//! cut the search short).
+
+use std::time::Instant;
+
+use axum::extract::{Path, State};
+use axum::http::{HeaderValue, StatusCode, header};
+use axum::response::{IntoResponse, Response};
+use serde::{Deserialize, Serialize};
+use utoipa::{IntoParams, ToSchema};
+use utoipa_axum::{router::OpenApiRouter, routes};
+
+use planner::export::{GeoItem, GeoPoint, PlanFileOptions, qgc_plan, qgc_wpl};
+use planner::{ItemKind, PlanOutcome, PlanParams, PlanRequest, StackItem, Strategy};
+use predictor::{NoRisk, Observation, Predictor, PredictorConfig, RiskField, RiskMapConfig};
+
+use crate::app::AppState;
+use crate::error::{ApiError, Problem};
+use crate::extract::{ApiJson, ApiQuery};
+use crate::mission::Mission;
+use crate::store::plans::{InsertPlanError, PlanRow};
+use crate::time::{format_rfc3339, now_s};
+
+/// Observations older than this before the start are not used, seconds.
+const OBSERVATION_WINDOW_S: f64 = 120.0;
+/// Longest accepted `deadline_ms`.
+const MAX_DEADLINE_MS: u64 = 60_000;
+
+/// Planner to run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StrategyIn {
+    /// Static pre-pass (seed 004) then Monte Carlo bisection on the risk map (seed 002).
+    #[default]
+    Bisection,
+    /// Static pre-pass only: waypoint insertion around cylinders.
+    Insertion,
+    /// Keep the stack; only evaluate its risk.
+    None,
+}
+
+/// Aircraft performance.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AircraftIn {
+    /// Cruise speed, m/s (default 20; telemetry speed wins when reported).
+    pub speed_mps: Option<f64>,
+    /// Minimum turn radius, metres (default 40).
+    pub turn_radius_m: Option<f64>,
+}
+
+/// `POST /api/v1/missions/{id}/plan` body (every field optional; `{}` is fine).
+#[derive(Debug, Clone, Default, Deserialize, ToSchema)]
+#[serde(deny_unknown_fields)]
+#[schema(example = json!({"seed": 42, "deadline_ms": 200, "base_revision": 0, "current_index": 1}))]
+pub struct PlanBody {
+    /// Seed of the plan's random choices (default: drawn and returned). Same inputs and
+    /// seed, same plan.
+    pub seed: Option<u64>,
+    /// Compute budget, milliseconds (anytime: the best plan found by then). Default none.
+    pub deadline_ms: Option<u64>,
+    /// Planner, default `bisection`.
+    pub strategy: Option<StrategyIn>,
+    /// The revision the aircraft flies (0 or absent = the mission's own waypoints). Older
+    /// than the latest revision: 409.
+    pub base_revision: Option<i64>,
+    /// Index in the base stack the aircraft flies toward (MAVLink current sequence).
+    /// Default: the base plan's, or 0.
+    pub current_index: Option<usize>,
+    /// Aircraft performance.
+    pub aircraft: Option<AircraftIn>,
+    /// Prediction horizon, seconds, default 60.
+    pub horizon_s: Option<f64>,
+}
+
+/// What a stack item is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum KindOut {
+    /// A mission waypoint (never moved).
+    Mission,
+    /// Inserted by the planner to avoid an obstacle.
+    Avoid,
+    /// A search-pattern waypoint.
+    Search,
+}
+
+/// One stack item.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct PlanWaypoint {
+    /// Latitude, degrees.
+    pub lat: f64,
+    /// Longitude, degrees.
+    pub lon: f64,
+    /// Altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// What it is for.
+    pub kind: KindOut,
+    /// Index into the mission's waypoints, for mission items.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mission_index: Option<usize>,
+}
+
+/// Tail rewrite from the base stack (MAVLink: delete `remove` items from `first_changed`,
+/// then write `insert` from there).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct DiffOut {
+    /// First index that differs; null when nothing changes.
+    pub first_changed: Option<usize>,
+    /// Items to delete from `first_changed` to the old end.
+    pub remove: usize,
+    /// Items to write from `first_changed` on.
+    pub insert: Vec<PlanWaypoint>,
+}
+
+/// Where the plan starts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct StartOut {
+    /// `telemetry` (the latest aircraft telemetry) or `stack` (no telemetry: the item before
+    /// the current index, now).
+    pub source: StartSource,
+    /// Time, Unix seconds.
+    pub t: f64,
+    /// Latitude, degrees.
+    pub lat: f64,
+    /// Longitude, degrees.
+    pub lon: f64,
+    /// Altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// Heading, degrees true.
+    pub heading_deg: f64,
+    /// Ground speed, m/s (0 = unknown).
+    pub speed_mps: f64,
+}
+
+/// Where the start came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StartSource {
+    /// Latest aircraft telemetry.
+    Telemetry,
+    /// No telemetry: a stack item.
+    Stack,
+}
+
+/// An obstacle observation used by a plan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct ObservationUsed {
+    /// Obstacle id.
+    pub obstacle_id: String,
+    /// Time, Unix seconds.
+    pub t: f64,
+    /// Latitude, degrees.
+    pub lat: f64,
+    /// Longitude, degrees.
+    pub lon: f64,
+    /// Altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// Sphere radius, metres.
+    pub radius_m: f64,
+}
+
+/// Everything a plan depends on besides the mission: stored with it for replay.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanInputs {
+    /// Seed.
+    pub seed: u64,
+    /// Strategy.
+    pub strategy: StrategyIn,
+    /// Deadline, ms.
+    pub deadline_ms: Option<u64>,
+    /// Horizon, seconds.
+    pub horizon_s: f64,
+    /// Cruise speed, m/s.
+    pub speed_mps: f64,
+    /// Turn radius, m.
+    pub turn_radius_m: f64,
+    /// Current index in `stack`.
+    pub current_index: usize,
+    /// The base stack (empty = the mission's waypoints).
+    pub stack: Vec<PlanWaypoint>,
+    /// The start.
+    pub start: StartOut,
+    /// Observations fed to the predictor.
+    pub observations: Vec<ObservationUsed>,
+}
+
+/// How dynamic risk was obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct DynamicRisk {
+    /// `risk_map` (predictor risk map from observations) or `none`.
+    pub source: DynamicSource,
+    /// Moving obstacles with observations in the window.
+    pub obstacles: usize,
+}
+
+/// Dynamic risk source.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DynamicSource {
+    /// The predictor's risk map.
+    RiskMap,
+    /// No moving obstacle observed: no dynamic risk.
+    None,
+}
+
+/// A plan as returned and stored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct PlanOut {
+    /// Plan id.
+    pub plan_id: String,
+    /// Mission id.
+    pub mission_id: String,
+    /// Revision (1, 2, ... per mission).
+    pub revision: i64,
+    /// The revision this plan revises (0 = the mission's waypoints).
+    pub base_revision: i64,
+    /// `exact`, `approximate`, `timeout`, `no_safe_path`, `start_inside_obstacle`,
+    /// `start_outside_fly_zone`, `waypoint_inside_cylinder`. A plan is returned in every
+    /// case (the least-risk one found).
+    pub outcome: String,
+    /// Seed used.
+    pub seed: u64,
+    /// Index to fly toward now.
+    pub current_index: usize,
+    /// The whole revised stack (items before `current_index` unchanged).
+    pub waypoints: Vec<PlanWaypoint>,
+    /// Tail rewrite from the base stack.
+    pub diff: DiffOut,
+    /// Peak risk along the remaining route within the horizon (1 = enters a cylinder or
+    /// leaves the fly zone).
+    pub risk: f64,
+    /// Peak risk of the base stack on the same metric.
+    pub base_risk: f64,
+    /// Risk exposure, metres flown at risk 1.
+    pub exposure_m: f64,
+    /// Remaining route length from the start, metres.
+    pub length_m: f64,
+    /// Avoid items in the remaining route.
+    pub added: usize,
+    /// Stack indices of avoid items whose turns are too sharp for the turn radius.
+    pub turn_violations: Vec<usize>,
+    /// Planning time, milliseconds (risk map included).
+    pub compute_ms: f64,
+    /// Dynamic risk used.
+    pub dynamic_risk: DynamicRisk,
+    /// The start.
+    pub start: StartOut,
+    /// When it was computed (RFC 3339).
+    pub created_at: String,
+}
+
+/// `?format=` of a plan download.
+#[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct GetParams {
+    /// `json` (default), `qgc-wpl` (QGC WPL 110 text) or `qgc-plan` (QGroundControl
+    /// `.plan` JSON).
+    pub format: Option<PlanFormat>,
+}
+
+/// A plan download format.
+#[derive(Debug, Clone, Copy, Deserialize, ToSchema)]
+pub enum PlanFormat {
+    /// The plan as JSON.
+    #[serde(rename = "json")]
+    Json,
+    /// QGC WPL 110 text, index 0 = home.
+    #[serde(rename = "qgc-wpl")]
+    QgcWpl,
+    /// QGroundControl `.plan` JSON with the fly zone as geofence.
+    #[serde(rename = "qgc-plan")]
+    QgcPlan,
+}
+
+fn outcome_name(o: PlanOutcome) -> &'static str {
+    match o {
+        PlanOutcome::Exact => "exact",
+        PlanOutcome::Approximate => "approximate",
+        PlanOutcome::Timeout => "timeout",
+        PlanOutcome::NoSafePath => "no_safe_path",
+        PlanOutcome::StartInsideObstacle { .. } => "start_inside_obstacle",
+        PlanOutcome::StartOutsideFlyZone => "start_outside_fly_zone",
+        PlanOutcome::WaypointInsideCylinder { .. } => "waypoint_inside_cylinder",
+        _ => "unknown",
+    }
+}
+
+fn kind_out(k: ItemKind) -> KindOut {
+    match k {
+        ItemKind::Mission => KindOut::Mission,
+        ItemKind::Avoid => KindOut::Avoid,
+        ItemKind::Search => KindOut::Search,
+    }
+}
+
+/// The mission in the planner's ENU terms.
+pub fn planner_mission(m: &Mission) -> planner::Mission {
+    let f = m.frame();
+    planner::Mission {
+        fly_zones: m
+            .content
+            .fly_zones
+            .iter()
+            .map(|z| planner::FlyZone {
+                boundary_m: z.boundary.iter().map(|p| f.to_enu(p.lat, p.lon)).collect(),
+                alt_min_m: z.alt_min_msl_m,
+                alt_max_m: z.alt_max_msl_m,
+            })
+            .collect(),
+        cylinders: m
+            .content
+            .stationary_obstacles
+            .iter()
+            .map(|c| planner::Cylinder {
+                center_m: f.to_enu(c.lat, c.lon),
+                radius_m: c.radius_m,
+                top_m: c.top_msl_m,
+            })
+            .collect(),
+        waypoints: m
+            .content
+            .waypoints
+            .iter()
+            .map(|w| planner::Waypoint {
+                p_m: f.to_enu(w.lat, w.lon),
+                alt_m: w.alt_msl_m,
+            })
+            .collect(),
+    }
+}
+
+/// The mission's own waypoints as a wire stack.
+pub fn mission_stack_out(m: &Mission) -> Vec<PlanWaypoint> {
+    m.content
+        .waypoints
+        .iter()
+        .enumerate()
+        .map(|(i, w)| PlanWaypoint {
+            lat: w.lat,
+            lon: w.lon,
+            alt_msl_m: w.alt_msl_m,
+            kind: KindOut::Mission,
+            mission_index: Some(i),
+        })
+        .collect()
+}
+
+/// The result of [`compute`].
+#[derive(Debug, Clone)]
+pub struct Computed {
+    /// The whole stack.
+    pub waypoints: Vec<PlanWaypoint>,
+    /// The diff.
+    pub diff: DiffOut,
+    /// The library's plan (ENU).
+    pub plan: planner::Plan,
+    /// Dynamic risk used.
+    pub dynamic_risk: DynamicRisk,
+    /// Time taken, ms.
+    pub compute_ms: f64,
+}
+
+/// Plans `mission` from `inputs` (CPU work: call it off the async runtime).
+pub fn compute(mission: &Mission, inputs: &PlanInputs) -> Result<Computed, ApiError> {
+    let started = Instant::now();
+    let deadline = inputs
+        .deadline_ms
+        .map(|ms| started + std::time::Duration::from_millis(ms));
+    let frame = mission.frame();
+    let pm = planner_mission(mission);
+    // Stack in ENU: mission items take the mission's own coordinates (no round trip).
+    let stack: Vec<StackItem> = inputs
+        .stack
+        .iter()
+        .map(|w| match (w.kind, w.mission_index) {
+            (KindOut::Mission, Some(i)) if i < pm.waypoints.len() => {
+                StackItem::mission(i, pm.waypoints[i].p_m, pm.waypoints[i].alt_m)
+            }
+            (KindOut::Search, _) => StackItem::search(frame.to_enu(w.lat, w.lon), w.alt_msl_m),
+            _ => StackItem::avoid(frame.to_enu(w.lat, w.lon), w.alt_msl_m),
+        })
+        .collect();
+    let base: Vec<StackItem> = if stack.is_empty() {
+        planner::stack::mission_stack(&pm)
+    } else {
+        stack
+    };
+    let s = &inputs.start;
+    let state = planner::AircraftState {
+        p_m: frame.to_enu(s.lat, s.lon),
+        alt_m: s.alt_msl_m,
+        heading_rad: s.heading_deg.to_radians(),
+        speed_mps: s.speed_mps,
+        t_s: s.t,
+    };
+
+    // Dynamic risk from the observations.
+    let mut pred = Predictor::new(PredictorConfig::default());
+    let mut ids = std::collections::BTreeSet::new();
+    for o in &inputs.observations {
+        ids.insert(o.obstacle_id.clone());
+        pred.observe(
+            &o.obstacle_id,
+            Observation {
+                t_s: o.t,
+                p_m: frame.to_enu(o.lat, o.lon),
+                alt_m: o.alt_msl_m,
+                radius_m: o.radius_m,
+            },
+        );
+    }
+    let map = if ids.is_empty() || inputs.strategy == StrategyIn::Insertion {
+        None
+    } else {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in pm
+            .fly_zones
+            .iter()
+            .flat_map(|z| z.boundary_m.iter())
+            .chain(std::iter::once(&state.p_m))
+        {
+            lo = [lo[0].min(p[0]), lo[1].min(p[1])];
+            hi = [hi[0].max(p[0]), hi[1].max(p[1])];
+        }
+        let cfg = RiskMapConfig::default()
+            .bounds(
+                [lo[0] - 300.0, lo[1] - 300.0],
+                [hi[0] + 300.0, hi[1] + 300.0],
+            )
+            .cell_m(10.0)
+            .time(1.0, inputs.horizon_s.max(1.0));
+        let path: Vec<[f64; 2]> = std::iter::once(state.p_m)
+            .chain(base.iter().skip(inputs.current_index).map(|i| i.p_m))
+            .collect();
+        pred.build_risk_map(&cfg, &path, state.t_s).ok()
+    };
+    let risk: &dyn RiskField = match &map {
+        Some(m) => m,
+        None => &NoRisk,
+    };
+    let mut params = PlanParams::default()
+        .horizon_s(inputs.horizon_s)
+        .deadline(deadline);
+    params.strategy = match inputs.strategy {
+        StrategyIn::Bisection => Strategy::Bisection,
+        StrategyIn::Insertion => Strategy::Insertion,
+        StrategyIn::None => Strategy::None,
+    };
+    let req = PlanRequest {
+        mission: &pm,
+        aircraft: planner::Aircraft {
+            speed_mps: inputs.speed_mps,
+            turn_radius_m: inputs.turn_radius_m,
+        },
+        stack: &base,
+        current_index: inputs.current_index,
+        state,
+        params,
+        seed: inputs.seed,
+    };
+    let plan = planner::plan(&req, risk).map_err(|e| ApiError::field("", e.to_string()))?;
+    let geo = |it: &StackItem| {
+        let (lat, lon) = match (it.kind, it.mission_index) {
+            (ItemKind::Mission, Some(i)) if i < mission.content.waypoints.len() => (
+                mission.content.waypoints[i].lat,
+                mission.content.waypoints[i].lon,
+            ),
+            _ => frame.to_geodetic(it.p_m),
+        };
+        PlanWaypoint {
+            lat,
+            lon,
+            alt_msl_m: it.alt_m,
+            kind: kind_out(it.kind),
+            mission_index: it.mission_index,
+        }
+    };
+    // Items taken over from the base stack keep their wire coordinates exactly.
+    let base_out: Vec<PlanWaypoint> = if inputs.stack.is_empty() {
+        mission_stack_out(mission)
+    } else {
+        inputs.stack.clone()
+    };
+    let first = plan.diff.first_changed.unwrap_or(plan.items.len());
+    let waypoints: Vec<PlanWaypoint> = plan
+        .items
+        .iter()
+        .enumerate()
+        .map(|(i, it)| {
+            if i < first && i < base_out.len() {
+                base_out[i]
+            } else {
+                geo(it)
+            }
+        })
+        .collect();
+    let diff = DiffOut {
+        first_changed: plan.diff.first_changed,
+        remove: plan.diff.remove,
+        insert: waypoints[first.min(waypoints.len())..].to_vec(),
+    };
+    Ok(Computed {
+        waypoints,
+        diff,
+        dynamic_risk: DynamicRisk {
+            source: if map.is_some() {
+                DynamicSource::RiskMap
+            } else {
+                DynamicSource::None
+            },
+            obstacles: ids.len(),
+        },
+        plan,
+        compute_ms: started.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// Builds the response document.
+pub fn plan_out(
+    mission_id: &str,
+    plan_id: String,
+    revision: i64,
+    base_revision: i64,
+    inputs: &PlanInputs,
+    c: &Computed,
+    now: f64,
+) -> PlanOut {
+    PlanOut {
+        plan_id,
+        mission_id: mission_id.to_string(),
+        revision,
+        base_revision,
+        outcome: outcome_name(c.plan.outcome).to_string(),
+        seed: inputs.seed,
+        current_index: c.plan.current_index,
+        waypoints: c.waypoints.clone(),
+        diff: c.diff.clone(),
+        risk: c.plan.risk,
+        base_risk: c.plan.base_risk,
+        exposure_m: c.plan.exposure_m,
+        length_m: c.plan.length_m,
+        added: c.plan.added,
+        turn_violations: c.plan.turn_violations.clone(),
+        compute_ms: c.compute_ms,
+        dynamic_risk: c.dynamic_risk,
+        start: inputs.start,
+        created_at: format_rfc3339(now),
+    }
+}
+
+/// A new seed that survives JSON numbers in every client (< 2^53).
+pub fn new_seed() -> u64 {
+    rand::random::<u64>() >> 11
+}
+
+/// Plan a revised waypoint stack.
+///
+/// Starts from the latest aircraft telemetry, revises the base stack (`base_revision`,
+/// default the mission's waypoints) from `current_index` on, and stores the result as the
+/// mission's next revision. The answer's `diff` says which tail of the base stack to
+/// rewrite. A stale `base_revision` (older than the latest) is refused with 409: replan
+/// from the latest.
+#[utoipa::path(post, path = "/api/v1/missions/{id}/plan", tag = "plans",
+    params(("id" = String, Path, description = "Mission id")),
+    request_body(content = PlanBody, description = "Planning options (all optional)", content_type = "application/json"),
+    responses(
+        (status = 201, description = "Planned and stored; `Location` names the plan", body = PlanOut,
+            headers(("Location" = String, description = "URL of the stored plan"))),
+        (status = 400, description = "Malformed JSON or a field of the wrong type", body = Problem, content_type = "application/problem+json"),
+        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
+        (status = 409, description = "`base_revision` is older than the latest revision", body = Problem, content_type = "application/problem+json"),
+        (status = 415, description = "Not a JSON body", body = Problem, content_type = "application/problem+json"),
+        (status = 422, description = "Invalid field, named by a JSON pointer", body = Problem, content_type = "application/problem+json"),
+    ))]
+async fn create_plan(
+    State(state): State<AppState>,
+    Path(id): Path<String>,
+    ApiJson(body): ApiJson<PlanBody>,
+) -> Result<Response, ApiError> {
+    let mission = super::missions::load(&state, &id).await?;
+    let latest = state.store.latest_plan_revision(&id).await?;
+    let base_revision = body.base_revision.unwrap_or(0);
+    if base_revision < 0 || base_revision > latest {
+        return Err(ApiError::field(
+            "/base_revision",
+            format!("revision {base_revision} does not exist (latest is {latest})"),
+        ));
+    }
+    if body.base_revision.is_some() && base_revision < latest {
+        return Err(ApiError::Conflict(format!(
+            "base_revision {base_revision} is older than the latest revision {latest}: plan from revision {latest}"
+        )));
+    }
+    let (stack, base_current) = if base_revision == 0 {
+        (Vec::new(), 0)
+    } else {
+        let row = state
+            .store
+            .get_plan_by_revision(&id, base_revision)
+            .await?
+            .ok_or_else(|| ApiError::field("/base_revision", "no such revision"))?;
+        let out: PlanOut =
+            serde_json::from_str(&row.body).map_err(|e| ApiError::Internal(e.to_string()))?;
+        (out.waypoints, out.current_index)
+    };
+    let stack_len = if stack.is_empty() {
+        mission.content.waypoints.len()
+    } else {
+        stack.len()
+    };
+    let current_index = body.current_index.unwrap_or(base_current);
+    if current_index > stack_len {
+        return Err(ApiError::field(
+            "/current_index",
+            format!("must be at most {stack_len} (the stack's length)"),
+        ));
+    }
+    let a = body.aircraft.unwrap_or_default();
+    let speed_mps = a.speed_mps.unwrap_or(20.0);
+    let turn_radius_m = a.turn_radius_m.unwrap_or(40.0);
+    if !(speed_mps.is_finite() && speed_mps > 0.0) {
+        return Err(ApiError::field("/aircraft/speed_mps", "must be positive"));
+    }
+    if !(turn_radius_m.is_finite() && turn_radius_m >= 0.0) {
+        return Err(ApiError::field("/aircraft/turn_radius_m", "must be >= 0"));
+    }
+    let horizon_s = body.horizon_s.unwrap_or(60.0);
+    if !(horizon_s.is_finite() && horizon_s > 0.0 && horizon_s <= 600.0) {
+        return Err(ApiError::field("/horizon_s", "must be in (0, 600]"));
+    }
+    if body
+        .deadline_ms
+        .is_some_and(|d| d == 0 || d > MAX_DEADLINE_MS)
+    {
+        return Err(ApiError::field(
+            "/deadline_ms",
+            format!("must be in [1, {MAX_DEADLINE_MS}]"),
+        ));
+    }
+    let now = now_s();
+    let telemetry = state.store.list_telemetry(&id, Some(1)).await?;
+    let start = match telemetry.last() {
+        Some(t) => StartOut {
+            source: StartSource::Telemetry,
+            t: t.t_s,
+            lat: t.lat_deg,
+            lon: t.lon_deg,
+            alt_msl_m: t.alt_msl_m,
+            heading_deg: t.heading_deg,
+            speed_mps: t.speed_mps.unwrap_or(0.0),
+        },
+        None => stack_start(&mission, &stack, current_index, now),
+    };
+    let observations = state
+        .store
+        .list_observations(&id, None, Some(start.t - OBSERVATION_WINDOW_S))
+        .await?
+        .into_iter()
+        .filter(|o| o.t_s <= start.t + 1e-6)
+        .map(|o| ObservationUsed {
+            obstacle_id: o.obstacle_id,
+            t: o.t_s,
+            lat: o.lat_deg,
+            lon: o.lon_deg,
+            alt_msl_m: o.alt_msl_m,
+            radius_m: o.radius_m,
+        })
+        .collect();
+    let inputs = PlanInputs {
+        seed: body.seed.unwrap_or_else(new_seed),
+        strategy: body.strategy.unwrap_or_default(),
+        deadline_ms: body.deadline_ms,
+        horizon_s,
+        speed_mps,
+        turn_radius_m,
+        current_index,
+        stack,
+        start,
+        observations,
+    };
+    let (m2, in2) = (mission.clone(), inputs.clone());
+    let computed = state.run_cpu(move || compute(&m2, &in2)).await??;
+    let plan_id = format!("{:016x}", rand::random::<u64>());
+    let revision = latest + 1;
+    let out = plan_out(
+        &id,
+        plan_id.clone(),
+        revision,
+        base_revision,
+        &inputs,
+        &computed,
+        now,
+    );
+    let row = PlanRow {
+        id: plan_id.clone(),
+        mission_id: id.clone(),
+        revision,
+        created_at_s: now,
+        seed: inputs.seed,
+        inputs: serde_json::to_string(&inputs).map_err(|e| ApiError::Internal(e.to_string()))?,
+        body: serde_json::to_string(&out).map_err(|e| ApiError::Internal(e.to_string()))?,
+    };
+    match state.store.insert_plan(&row).await {
+        Ok(()) => {}
+        Err(InsertPlanError::RevisionTaken(r)) => {
+            return Err(ApiError::Conflict(format!(
+                "revision {r} was created concurrently: plan again from it"
+            )));
+        }
+        Err(InsertPlanError::NoMission) => return Err(ApiError::not_found("mission", id)),
+        Err(InsertPlanError::Db(e)) => return Err(e.into()),
+    }
+    tracing::info!(mission = %id, revision, outcome = %out.outcome, added = out.added, ms = out.compute_ms, "plan stored");
+    let mut resp = (StatusCode::CREATED, axum::Json(out)).into_response();
+    resp.headers_mut().insert(
+        header::LOCATION,
+        HeaderValue::from_str(&format!("/api/v1/missions/{id}/plans/{plan_id}"))
+            .map_err(|e| ApiError::Internal(e.to_string()))?,
+    );
+    Ok(resp)
+}
+
+/// No telemetry: start at the stack item before the current index (or the first), heading
+/// toward the current one, now.
+pub fn stack_start(
+    mission: &Mission,
+    stack: &[PlanWaypoint],
+    current_index: usize,
+    now: f64,
+) -> StartOut {
+    let own;
+    let st: &[PlanWaypoint] = if stack.is_empty() {
+        own = mission_stack_out(mission);
+        &own
+    } else {
+        stack
+    };
+    let from = st.get(current_index.saturating_sub(1)).or(st.first());
+    let to = st.get(current_index);
+    let (lat, lon, alt) = from.map_or(
+        (
+            mission.home.lat,
+            mission.home.lon,
+            mission.home.alt_msl_m.unwrap_or(0.0),
+        ),
+        |w| (w.lat, w.lon, w.alt_msl_m),
+    );
+    let heading_deg = match to {
+        Some(t) => {
+            let f = mission.frame();
+            let (a, b) = (f.to_enu(lat, lon), f.to_enu(t.lat, t.lon));
+            (b[0] - a[0])
+                .atan2(b[1] - a[1])
+                .to_degrees()
+                .rem_euclid(360.0)
+        }
+        None => 0.0,
+    };
+    StartOut {
+        source: StartSource::Stack,
+        t: now,
+        lat,
+        lon,
+        alt_msl_m: alt,
+        heading_deg,
+        speed_mps: 0.0,
+    }
+}
+
+/// One stored plan, as JSON or as a ground-station file.
+#[utoipa::path(get, path = "/api/v1/missions/{id}/plans/{plan_id}", tag = "plans",
+    params(("id" = String, Path, description = "Mission id"), ("plan_id" = String, Path, description = "Plan id"), GetParams),
+    responses(
+        (status = 200, description = "The plan (JSON), or a QGC WPL 110 text file (`text/plain`), or a QGroundControl `.plan` file",
+            content((PlanOut = "application/json"), (String = "text/plain"))),
+        (status = 400, description = "Unknown format", body = Problem, content_type = "application/problem+json"),
+        (status = 404, description = "No such mission or plan", body = Problem, content_type = "application/problem+json"),
+    ))]
+async fn get_plan(
+    State(state): State<AppState>,
+    Path((id, plan_id)): Path<(String, String)>,
+    ApiQuery(q): ApiQuery<GetParams>,
+) -> Result<Response, ApiError> {
+    let mission = super::missions::load(&state, &id).await?;
+    let row = state
+        .store
+        .get_plan(&id, &plan_id)
+        .await?
+        .ok_or_else(|| ApiError::not_found("plan", plan_id))?;
+    let fmt = q.format.unwrap_or(PlanFormat::Json);
+    if matches!(fmt, PlanFormat::Json) {
+        let mut resp = row.body.into_response();
+        resp.headers_mut().insert(
+            header::CONTENT_TYPE,
+            HeaderValue::from_static("application/json"),
+        );
+        return Ok(resp);
+    }
+    let out: PlanOut =
+        serde_json::from_str(&row.body).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let home = GeoItem {
+        lat_deg: mission.home.lat,
+        lon_deg: mission.home.lon,
+        alt_msl_m: mission.home.alt_msl_m.unwrap_or(0.0),
+        kind: ItemKind::Mission,
+    };
+    let items: Vec<GeoItem> = out
+        .waypoints
+        .iter()
+        .map(|w| GeoItem {
+            lat_deg: w.lat,
+            lon_deg: w.lon,
+            alt_msl_m: w.alt_msl_m,
+            kind: match w.kind {
+                KindOut::Mission => ItemKind::Mission,
+                KindOut::Avoid => ItemKind::Avoid,
+                KindOut::Search => ItemKind::Search,
+            },
+        })
+        .collect();
+    let (text, ctype, ext) = match fmt {
+        PlanFormat::QgcWpl => (
+            qgc_wpl(&home, &items),
+            "text/plain; charset=utf-8",
+            "waypoints",
+        ),
+        _ => {
+            let zones: Vec<Vec<GeoPoint>> = mission
+                .content
+                .fly_zones
+                .iter()
+                .map(|z| {
+                    z.boundary
+                        .iter()
+                        .map(|p| GeoPoint {
+                            lat_deg: p.lat,
+                            lon_deg: p.lon,
+                        })
+                        .collect()
+                })
+                .collect();
+            (
+                qgc_plan(&home, &items, &zones, &PlanFileOptions::default()),
+                "application/json",
+                "plan",
+            )
+        }
+    };
+    let mut resp = text.into_response();
+    let h = resp.headers_mut();
+    h.insert(header::CONTENT_TYPE, HeaderValue::from_static(ctype));
+    h.insert(
+        header::CONTENT_DISPOSITION,
+        HeaderValue::from_str(&format!(
+            "attachment; filename=\"{id}-r{}.{ext}\"",
+            out.revision
+        ))
+        .map_err(|e| ApiError::Internal(e.to_string()))?,
+    );
+    Ok(resp)
+}
+
+/// Plan routes.
+pub fn router() -> OpenApiRouter<AppState> {
+    OpenApiRouter::new()
+        .routes(routes!(create_plan))
+        .routes(routes!(get_plan))
+}
