@@ -301,4 +301,20 @@ mod tests {
         assert!(!u.contains_segment([2.0, 8.0], [8.0, 8.0]));
         assert!(u.contains_segment([2.0, 1.0], [8.0, 1.0]));
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+        /// The even-odd test agrees with `geo` on a non-convex polygon (points within
+        /// 1e-6 of an edge are skipped: the boundary may go either way).
+        #[test]
+        fn contains_agrees_with_geo(x in -2.0..12.0f64, y in -2.0..12.0f64) {
+            use geo::Contains;
+            let ring = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [6.0, 10.0], [6.0, 2.0], [4.0, 2.0], [4.0, 10.0], [0.0, 10.0], [3.0, 5.0]];
+            let poly = Polygon::new(&ring);
+            let g = geo::Polygon::new(geo::LineString::from(ring.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>()), vec![]);
+            if poly.boundary_distance([x, y]) > 1e-6 {
+                proptest::prop_assert_eq!(poly.contains([x, y]), g.contains(&geo::Point::new(x, y)));
+            }
+        }
+    }
 }

@@ -171,10 +171,12 @@ pub enum PlanOutcome {
     Exact,
     /// Clear and safe, but the deadline cut a search short: the best found so far.
     Approximate,
-    /// The deadline passed before a threatened leg could be searched: the pre-pass result
-    /// (or the stack) is returned.
+    /// The deadline passed before a threatened leg could be searched, or cut the search
+    /// short before a safe plan was found: the least-risk plan found so far (at worst the
+    /// pre-pass result or the stack) is returned.
     Timeout,
-    /// No clear and safe plan found: the least-risk plan found is returned.
+    /// The search completed without a clear and safe plan: the least-risk plan found is
+    /// returned.
     NoSafePath,
     /// The aircraft is inside a cylinder (at its altitude): plan returned as is.
     StartInsideObstacle {
@@ -416,6 +418,7 @@ pub fn plan(req: &PlanRequest<'_>, risk: &dyn RiskField) -> Result<Plan, PlanErr
         .map(|v| ci + v.index - 1)
         .collect();
 
+    let safe = best.hard_violations == 0 && best.peak <= p.safe_risk;
     let outcome = if let Some(c) = cylinder_containing(cylinders, s.p_m, s.alt_m) {
         PlanOutcome::StartInsideObstacle { cylinder: c }
     } else if !zones.contains(s.p_m) {
@@ -428,10 +431,10 @@ pub fn plan(req: &PlanRequest<'_>, risk: &dyn RiskField) -> Result<Plan, PlanErr
             stack_index,
             cylinder,
         }
-    } else if best.hard_violations > 0 || best.peak > p.safe_risk {
-        PlanOutcome::NoSafePath
-    } else if timed_out && !searched_all {
+    } else if timed_out && (!searched_all || !safe) {
         PlanOutcome::Timeout
+    } else if !safe {
+        PlanOutcome::NoSafePath
     } else if timed_out {
         PlanOutcome::Approximate
     } else {

@@ -247,6 +247,41 @@ fn passed_items_keep_their_indices() {
 }
 
 #[test]
+fn a_deadline_already_passed_returns_the_pre_pass_plan_as_a_timeout() {
+    // The mover of `a_mover_crossing_the_leg_is_dodged`, but no time to search: the
+    // outcome says so and the (unsearched) plan is still returned, never riskier than the
+    // stack.
+    let m = Mission {
+        fly_zones: vec![],
+        cylinders: vec![],
+        waypoints: vec![
+            Waypoint {
+                p_m: [0.0, 0.0],
+                alt_m: 100.0,
+            },
+            Waypoint {
+                p_m: [2000.0, 0.0],
+                alt_m: 100.0,
+            },
+        ],
+    };
+    let field = Blobs(vec![Blob {
+        p0_m: [600.0, -150.0],
+        v_mps: [0.0, 5.0],
+        radius_m: 40.0,
+        sigma0_m: 10.0,
+        growth_mps: 0.5,
+    }]);
+    let stack = mission_stack(&m);
+    let mut req = request(&m, &stack, 1, state_at([0.0, 0.0], 100.0), 3);
+    req.params = req.params.deadline(Some(std::time::Instant::now()));
+    let p = plan(&req, &field).unwrap();
+    assert_eq!(p.outcome, PlanOutcome::Timeout);
+    assert!(p.risk <= p.base_risk);
+    assert_eq!(p.items.len(), 2);
+}
+
+#[test]
 fn leg_seeds_are_fixed() {
     // Pin the derived seeds: stored plans must replay after upgrades.
     assert_eq!(leg_seed(0, 0, 0), leg_seed(0, 0, 0));
