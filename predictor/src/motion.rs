@@ -305,7 +305,7 @@ mod tests {
             // = 1.5 rad, chord of a 1.5 rad arc of length 50 = 2 R sin(0.75), R = 33.3)
             // at least 45.4 m.
             let d = p[0].hypot(p[1]);
-            assert!(d <= 50.0 + 1e-9 && d >= 45.0, "{d}");
+            assert!((45.0..=50.0 + 1e-9).contains(&d), "{d}");
         }
     }
 

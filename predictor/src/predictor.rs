@@ -268,7 +268,8 @@ impl Predictor {
 
     /// The risk map for `cfg`, `intended_path` and slice-0 time `t0_s`. When the cached
     /// map has the same parameters, only obstacles observed since the last call are redone
-    /// (incremental); otherwise the map is rebuilt. An invalid `cfg` yields an empty map
+    /// (incremental); otherwise every obstacle is redone (a full rebuild, reusing the
+    /// grid's allocation when `cfg` is unchanged). An invalid `cfg` yields an empty map
     /// over a default grid (validate with [`RiskMap::new`] first to see the error).
     pub fn risk_map(
         &mut self,
@@ -276,10 +277,13 @@ impl Predictor {
         intended_path: &[[f64; 2]],
         t0_s: f64,
     ) -> &RiskMap {
-        let reuse = self.map.as_ref().is_some_and(|m| {
-            m.config() == cfg && m.intended_path() == intended_path && m.t0_s() == t0_s
-        });
-        if reuse {
+        let same_cfg = self.map.as_ref().is_some_and(|m| m.config() == cfg);
+        let same_anchor = same_cfg
+            && self
+                .map
+                .as_ref()
+                .is_some_and(|m| m.intended_path() == intended_path && m.t0_s() == t0_s);
+        if same_anchor {
             let dirty = std::mem::take(&mut self.dirty);
             let map = self.map.as_mut().expect("checked");
             for id in dirty {
@@ -289,13 +293,25 @@ impl Predictor {
             }
         } else {
             self.dirty.clear();
-            let mut map = RiskMap::new(cfg.clone(), intended_path, t0_s).unwrap_or_else(|_| {
-                RiskMap::new(RiskMapConfig::default(), &[], t0_s).expect("default config is valid")
-            });
+            let mut map = match self.map.take() {
+                Some(mut m) if same_cfg => {
+                    m.reset(intended_path, t0_s);
+                    m
+                }
+                _ => RiskMap::new(cfg.clone(), intended_path, t0_s).unwrap_or_else(|_| {
+                    RiskMap::new(RiskMapConfig::default(), &[], t0_s)
+                        .expect("default config is valid")
+                }),
+            };
             map.rebuild(self.obstacles.iter().map(|(id, o)| input(id, o)));
             self.map = Some(map);
         }
         self.map.as_ref().expect("set above")
+    }
+
+    /// The cached risk map, if any.
+    pub fn cached_risk_map(&self) -> Option<&RiskMap> {
+        self.map.as_ref()
     }
 
     /// Builds a fresh map without touching the cache (a full rebuild).

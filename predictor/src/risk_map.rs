@@ -10,12 +10,16 @@
 //!
 //! Data layout, chosen for the speed targets (incremental update of one obstacle <= 1 ms,
 //! full rebuild of 10 <= 10 ms, >= 20 M queries/s):
-//! - one dense `f64` grid per slice holding `q = prod(1 - p_i)`; a query is one load
+//! - one dense `f32` grid per slice holding `q = prod(1 - p_i)`; a query is one load
 //!   (`risk = 1 - q`, nearest slice and nearest cell, with precomputed reciprocals);
-//! - per obstacle and slice a sparse list of `(cell, 1 - p)` with `1 - p` clamped to at
-//!   least `1e-6`, so that an obstacle's contribution is removed by division and added by
-//!   multiplication, touching only its own cells: an observation of one obstacle redoes
-//!   only that obstacle;
+//! - per obstacle and slice a sparse list of `(cell, 1 - p, 1 / (1 - p))` with `1 - p`
+//!   clamped to at least `1e-6`, so that an obstacle's contribution is removed and added by
+//!   multiplications touching only its own cells: an observation of one obstacle redoes
+//!   only that obstacle. The rounding drift of remove-then-add (f32, ~1e-7 per update) is
+//!   wiped whenever the map is re-anchored or rebuilt (cells reset to exactly 1);
+//! - splatting: particles are merged per cell, then each occupied cell stamps the disc
+//!   stencil into a dense buffer over the slice's bounding box with contiguous row
+//!   additions, and the non-zero cells become the slice's entries;
 //! - per obstacle and slice a bounding box and peak probability, which answer
 //!   `segment_risk_bound` without touching the grid.
 //!
@@ -145,13 +149,20 @@ struct Contribution {
     /// Not a threat: contributes nothing.
     filtered: bool,
     disc: Option<Disc>,
-    idx: Vec<u32>,
-    omp: Vec<f32>,
+    /// `(cell, 1 - p, 1 / (1 - p))`: removal is a multiplication too.
+    entries: Vec<Entry>,
     /// `slice_start[k]..slice_start[k+1]` are slice k's entries.
     slice_start: Vec<u32>,
     /// Per slice `[x0, y0, x1, y1]` in metres (empty when x0 > x1), and peak probability.
     bbox_m: Vec<[f64; 4]>,
     max_p: Vec<f32>,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    idx: u32,
+    omp: f32,
+    inv: f32,
 }
 
 #[derive(Debug, Clone)]
@@ -172,15 +183,18 @@ pub struct RiskMap {
     n_slices: usize,
     inv_cell: f64,
     inv_dt: f64,
-    q: Vec<f64>,
+    q: Vec<f32>,
     contrib: BTreeMap<String, Contribution>,
     discs: Vec<Disc>,
     stencils: Vec<(u64, Stencil)>,
     acc: Vec<f32>,
     mark: Vec<u32>,
     stamp_gen: u32,
-    touched: Vec<u32>,
     centres: Vec<u32>,
+    boxbuf: Vec<f32>,
+    row_span: Vec<(i32, i32)>,
+    cur_slice: usize,
+    spare: Vec<Contribution>,
     stamps: Vec<(i32, i32, f32)>,
 }
 
@@ -286,8 +300,11 @@ impl RiskMap {
             acc: vec![0.0; nx * ny],
             mark: vec![0; nx * ny],
             stamp_gen: 0,
-            touched: Vec::new(),
             centres: Vec::new(),
+            boxbuf: Vec::new(),
+            row_span: Vec::new(),
+            cur_slice: 0,
+            spare: Vec::new(),
             stamps: Vec::new(),
             cfg,
         })
@@ -350,8 +367,14 @@ impl RiskMap {
             return None;
         }
         let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
-        let sum: f64 = c.omp[r].iter().map(|&omp| 1.0 - f64::from(omp)).sum();
+        let sum: f64 = c.entries[r].iter().map(|e| 1.0 - f64::from(e.omp)).sum();
         Some(sum * self.cfg.cell_m * self.cfg.cell_m)
+    }
+
+    /// Number of grid cells (over all slices) obstacle `id` contributes to: the work an
+    /// incremental update of it costs.
+    pub fn obstacle_cells(&self, id: &str) -> Option<usize> {
+        self.contrib.get(id).map(|c| c.entries.len())
     }
 
     /// Area of the splat stencil of a sphere of `radius_m` (plus the buffer), square metres.
@@ -384,20 +407,48 @@ impl RiskMap {
 
     /// Removes every obstacle and rebuilds the map from `obstacles`.
     pub fn rebuild<'a>(&mut self, obstacles: impl IntoIterator<Item = ObstacleInput<'a>>) {
-        let ids: Vec<String> = self.contrib.keys().cloned().collect();
-        for id in ids {
-            self.remove_obstacle(&id);
-        }
+        self.clear_all();
         for o in obstacles {
             self.update_obstacle(&o);
         }
     }
 
+    /// Removes every obstacle and moves the map to a new slice-0 time and intended path,
+    /// keeping its allocation (re-anchoring costs only the removal of the old
+    /// contributions).
+    pub fn reset(&mut self, intended_path: &[[f64; 2]], t0_s: f64) {
+        self.clear_all();
+        self.path.clear();
+        self.path.extend_from_slice(intended_path);
+        self.t0_s = t0_s;
+    }
+
+    /// Every contribution removed: the cells they touched are set back to exactly 1, which
+    /// also wipes the rounding drift of incremental updates.
+    fn clear_all(&mut self) {
+        let cells = self.nx * self.ny;
+        for c in self.contrib.values() {
+            for k in 0..c.slice_start.len().saturating_sub(1) {
+                let base = k * cells;
+                for e in &c.entries[c.slice_start[k] as usize..c.slice_start[k + 1] as usize] {
+                    self.q[base + e.idx as usize] = 1.0;
+                }
+            }
+        }
+        // Keep the allocations for the next rebuild.
+        let old = std::mem::take(&mut self.contrib);
+        self.spare.extend(old.into_values().map(|mut c| {
+            c.entries.clear();
+            c.slice_start.clear();
+            c
+        }));
+        self.discs.clear();
+    }
+
     /// Removes obstacle `id`'s contribution.
     pub fn remove_obstacle(&mut self, id: &str) {
-        if let Some(mut c) = self.contrib.remove(id) {
+        if let Some(c) = self.contrib.remove(id) {
             self.subtract(&c);
-            c.idx.clear();
             self.refresh_discs();
         }
     }
@@ -407,10 +458,11 @@ impl RiskMap {
         for k in 0..self.n_slices.min(c.slice_start.len().saturating_sub(1)) {
             let base = k * cells;
             let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
-            for (&j, &omp) in c.idx[r.clone()].iter().zip(&c.omp[r]) {
-                let q = &mut self.q[base + j as usize];
-                *q /= f64::from(omp);
-                if *q > 1.0 - 1e-9 {
+            for e in &c.entries[r] {
+                let q = &mut self.q[base + e.idx as usize];
+                *q *= e.inv;
+                // Snap the rounding drift of multiply-then-divide back to exactly 1.
+                if *q > 1.0 - 1e-6 {
                     *q = 1.0;
                 }
             }
@@ -429,12 +481,15 @@ impl RiskMap {
     /// Replaces obstacle `o.id`'s contribution with one computed from its current model:
     /// only its own cells are touched.
     pub fn update_obstacle(&mut self, o: &ObstacleInput<'_>) {
-        let mut c = self.contrib.remove(o.id).unwrap_or_default();
+        let mut c = self
+            .contrib
+            .remove(o.id)
+            .or_else(|| self.spare.pop())
+            .unwrap_or_default();
         self.subtract(&c);
         c.filtered = false;
         c.disc = None;
-        c.idx.clear();
-        c.omp.clear();
+        c.entries.clear();
         c.slice_start.clear();
         c.bbox_m.clear();
         c.max_p.clear();
@@ -455,14 +510,6 @@ impl RiskMap {
             });
         } else if !c.filtered {
             self.splat_obstacle(o, r_m, &mut c);
-            let cells = self.nx * self.ny;
-            for k in 0..self.n_slices {
-                let base = k * cells;
-                let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
-                for (&j, &omp) in c.idx[r.clone()].iter().zip(&c.omp[r]) {
-                    self.q[base + j as usize] *= f64::from(omp);
-                }
-            }
         }
         self.contrib.insert(o.id.to_owned(), c);
         self.refresh_discs();
@@ -477,6 +524,7 @@ impl RiskMap {
         c.slice_start.push(0);
         for k in 0..self.n_slices {
             let tk = self.slice_time(k);
+            self.cur_slice = k;
             self.begin_slice();
             if tk <= o.model.t_s {
                 let p = o
@@ -526,6 +574,8 @@ impl RiskMap {
         }
     }
 
+    /// Splats the slice's merged centres into a dense buffer over their bounding box
+    /// (contiguous row additions), then keeps the non-zero cells as the slice's entries.
     fn finish_slice(&mut self, si: usize, c: &mut Contribution) {
         let nx = self.nx as i32;
         let ny = self.ny as i32;
@@ -534,38 +584,28 @@ impl RiskMap {
             self.stamps
                 .push(((j % self.nx) as i32, (j / self.nx) as i32, self.acc[j]));
         }
-        self.stamp_gen = self.stamp_gen.wrapping_add(1);
-        if self.stamp_gen == 0 {
-            self.mark.fill(0);
-            self.stamp_gen = 1;
-        }
-        let stamp_gen = self.stamp_gen;
-        self.touched.clear();
         let stencil = &self.stencils[si].1;
-        for &(cx, cy, w) in &self.stamps {
-            for &(dy, hw) in &stencil.rows {
-                let y = cy + dy;
-                if y < 0 || y >= ny {
-                    continue;
-                }
-                let x0 = (cx - hw).max(0);
-                let x1 = (cx + hw).min(nx - 1);
-                if x0 > x1 {
-                    continue;
-                }
-                let base = (y * nx) as usize;
-                for x in x0 as usize..=x1 as usize {
-                    let j = base + x;
-                    if self.mark[j] != stamp_gen {
-                        self.mark[j] = stamp_gen;
-                        self.acc[j] = w;
-                        self.touched.push(j as u32);
-                    } else {
-                        self.acc[j] += w;
-                    }
-                }
-            }
+        let rc = stencil
+            .rows
+            .iter()
+            .map(|r| r.0.abs().max(r.1))
+            .max()
+            .unwrap_or(0);
+        let (mut bx0, mut by0, mut bx1, mut by1) = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
+        for &(cx, cy, _) in &self.stamps {
+            bx0 = bx0.min(cx);
+            by0 = by0.min(cy);
+            bx1 = bx1.max(cx);
+            by1 = by1.max(cy);
         }
+        let (bx0, by0) = (
+            (bx0.saturating_sub(rc)).max(0),
+            (by0.saturating_sub(rc)).max(0),
+        );
+        let (bx1, by1) = (
+            (bx1.saturating_add(rc)).min(nx - 1),
+            (by1.saturating_add(rc)).min(ny - 1),
+        );
         let mut bb = [
             f64::INFINITY,
             f64::INFINITY,
@@ -573,29 +613,92 @@ impl RiskMap {
             f64::NEG_INFINITY,
         ];
         let mut max_p: f32 = 0.0;
-        let (ix0, iy0, ix1, iy1) = self
-            .touched
-            .iter()
-            .fold((u32::MAX, u32::MAX, 0, 0), |b, &j| {
-                let (x, y) = (j % self.nx as u32, j / self.nx as u32);
-                (b.0.min(x), b.1.min(y), b.2.max(x), b.3.max(y))
-            });
-        for &j in &self.touched {
-            let p = self.acc[j as usize].min(1.0);
-            max_p = max_p.max(p);
-            c.idx.push(j);
-            c.omp.push((1.0 - p).max(1e-6));
+        if bx0 <= bx1 && by0 <= by1 && !self.stamps.is_empty() {
+            // Row differences: each stencil row adds +w at its first cell and -w just after
+            // its last; a prefix sum along each row then gives the splat. Two operations
+            // per stamp and row, whatever the stencil's width.
+            let bw = (bx1 - bx0 + 1) as usize;
+            let bh = (by1 - by0 + 1) as usize;
+            let stride = bw + 1;
+            self.boxbuf.clear();
+            self.boxbuf.resize(stride * bh, 0.0);
+            // Per box row, the touched span: the scan below skips the empty rest.
+            self.row_span.clear();
+            self.row_span.resize(bh, (i32::MAX, i32::MIN));
+            for &(cx, cy, w) in &self.stamps {
+                for &(dy, hw) in &stencil.rows {
+                    let y = cy + dy;
+                    if y < by0 || y > by1 {
+                        continue;
+                    }
+                    let x0 = (cx - hw).max(bx0);
+                    let x1 = (cx + hw).min(bx1);
+                    if x0 > x1 {
+                        continue;
+                    }
+                    let yy = (y - by0) as usize;
+                    let row = yy * stride;
+                    self.boxbuf[row + (x0 - bx0) as usize] += w;
+                    self.boxbuf[row + (x1 - bx0) as usize + 1] -= w;
+                    let span = &mut self.row_span[yy];
+                    span.0 = span.0.min(x0 - bx0);
+                    span.1 = span.1.max(x1 - bx0);
+                }
+            }
+            let (mut ix0, mut iy0, mut ix1, mut iy1) = (usize::MAX, usize::MAX, 0, 0);
+            c.entries.reserve(bw * bh / 2);
+            // The smallest real value is one particle's weight; f32 differences leave
+            // crumbs of ~1e-7 where a row should be 0.
+            let eps = 0.25 / self.cfg.particles as f32;
+            let qbase = self.cur_slice * self.nx * self.ny;
+            for yy in 0..bh {
+                let (lo, hi) = self.row_span[yy];
+                if lo > hi {
+                    continue;
+                }
+                let (lo, hi) = (lo as usize, hi as usize);
+                let row = &self.boxbuf[yy * stride + lo..=yy * stride + hi];
+                let gy = by0 as usize + yy;
+                let gbase = gy * self.nx + bx0 as usize + lo;
+                let before = c.entries.len();
+                let mut acc = 0.0f32;
+                for (xx, &d) in row.iter().enumerate() {
+                    acc += d;
+                    if acc > eps {
+                        let p = acc.min(1.0);
+                        let omp = (1.0 - p).max(1e-6);
+                        max_p = max_p.max(p);
+                        let idx = gbase + xx;
+                        // Fold the contribution into the combined grid in the same pass.
+                        self.q[qbase + idx] *= omp;
+                        c.entries.push(Entry {
+                            idx: idx as u32,
+                            omp,
+                            inv: 1.0 / omp,
+                        });
+                    }
+                }
+                if c.entries.len() > before {
+                    let first = c.entries[before].idx as usize - gbase + lo;
+                    let last = c.entries[c.entries.len() - 1].idx as usize - gbase + lo;
+                    ix0 = ix0.min(first);
+                    ix1 = ix1.max(last);
+                    iy0 = iy0.min(gy);
+                    iy1 = iy1.max(gy);
+                }
+            }
+            if ix0 != usize::MAX {
+                let cm = self.cfg.cell_m;
+                let (gx0, gx1) = (bx0 as usize + ix0, bx0 as usize + ix1);
+                bb = [
+                    self.cfg.min_m[0] + gx0 as f64 * cm,
+                    self.cfg.min_m[1] + iy0 as f64 * cm,
+                    self.cfg.min_m[0] + (gx1 + 1) as f64 * cm,
+                    self.cfg.min_m[1] + (iy1 + 1) as f64 * cm,
+                ];
+            }
         }
-        if !self.touched.is_empty() {
-            let cm = self.cfg.cell_m;
-            bb = [
-                self.cfg.min_m[0] + f64::from(ix0) * cm,
-                self.cfg.min_m[1] + f64::from(iy0) * cm,
-                self.cfg.min_m[0] + f64::from(ix1 + 1) * cm,
-                self.cfg.min_m[1] + f64::from(iy1 + 1) * cm,
-            ];
-        }
-        c.slice_start.push(c.idx.len() as u32);
+        c.slice_start.push(c.entries.len() as u32);
         c.bbox_m.push(bb);
         c.max_p.push(max_p);
     }
@@ -619,7 +722,7 @@ impl RiskMap {
         let cells = self.nx * self.ny;
         let mut data: Vec<f32> = self.q[k * cells..(k + 1) * cells]
             .iter()
-            .map(|&q| (1.0 - q).clamp(0.0, 1.0) as f32)
+            .map(|&q| (1.0 - q).clamp(0.0, 1.0))
             .collect();
         if !self.discs.is_empty() {
             let cm = self.cfg.cell_m;
@@ -656,7 +759,7 @@ impl RiskField for RiskMap {
         if fx >= 0.0 && fy >= 0.0 {
             let (ix, iy) = (fx as usize, fy as usize);
             if ix < self.nx && iy < self.ny {
-                r = 1.0 - self.q[(k * self.ny + iy) * self.nx + ix];
+                r = 1.0 - f64::from(self.q[(k * self.ny + iy) * self.nx + ix]);
             }
         }
         if !self.discs.is_empty() && r < 1.0 {

@@ -50,7 +50,7 @@ proptest! {
         stage in prop_oneof![Just(None), Just(Some(Stage::Random)), Just(Some(Stage::Advanced)), Just(Some(Stage::Memory))],
     ) {
         let cfg = PredictorConfig::default().forced_stage(stage);
-        let (mut p, _) = fed(behaviour(bi, 0.25), speed, radius, seed, 40.0, cfg);
+        let (p, _) = fed(behaviour(bi, 0.25), speed, radius, seed, 40.0, cfg);
         // The grid is centred on the obstacle and wider than it can fly in the horizon.
         let c = p.obstacle("0").unwrap().estimates.position_m;
         let mc = RiskMapConfig::default().bounds([c[0] - 700.0, c[1] - 700.0], [c[0] + 700.0, c[1] + 700.0]).time(1.0, 20.0).particles(64);

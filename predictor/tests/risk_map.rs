@@ -193,3 +193,21 @@ fn the_constant_velocity_baseline_is_a_disc_at_the_extrapolated_position() {
     assert_eq!(f.risk([0.0, 134.0], 12.0), 1.0);
     assert_eq!(f.risk([0.0, 136.0], 12.0), 0.0);
 }
+
+#[test]
+fn re_anchoring_the_cached_map_equals_a_fresh_build() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    feed(&mut p, "a", Behaviour::Uniform { w: 0.2 }, 5, [0.0, 0.0]);
+    feed(&mut p, "b", Behaviour::Zigzag { w: 0.2 }, 6, [200.0, 0.0]);
+    let c = cfg();
+    p.risk_map(&c, &[], 60.0);
+    p.risk_map(&c, &[], 61.0);
+    let cached = p.risk_map(&c, &[[0.0, 0.0], [100.0, 0.0]], 62.0).clone();
+    let fresh = p
+        .build_risk_map(&c, &[[0.0, 0.0], [100.0, 0.0]], 62.0)
+        .unwrap();
+    for k in 0..fresh.slices() {
+        let t = 62.0 + k as f64;
+        assert_eq!(cached.slice(t), fresh.slice(t), "slice {k}");
+    }
+}
