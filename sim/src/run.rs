@@ -78,8 +78,11 @@ pub struct RunMetrics {
     pub path_ratio: f64,
     /// Smallest clearance to any obstacle surface, metres (negative inside).
     pub min_clearance_m: f64,
-    /// Avoid waypoints the aircraft actually flew to.
+    /// Avoid waypoints the aircraft actually reached (switched past).
     pub waypoints_added: usize,
+    /// Distinct avoid waypoints the aircraft flew toward (a replanning strategy that moves
+    /// its avoid point every period counts each new one).
+    pub avoid_targets: usize,
     /// Seconds outside the fly zone or its altitude band.
     pub boundary_violation_s: f64,
     /// Separate excursions out of the fly zone.
@@ -151,6 +154,8 @@ pub fn run_with_streams(
     let mut judge_tel = vec![(0.0, ap.state.p_m)];
     let mut path_len = 0.0;
     let mut added = 0;
+    let mut avoid_targets = 0;
+    let mut last_target = stack.target().map(|t| t.p_m);
     let mut step = 0usize;
     if cfg.record_track {
         track.push([0.0, ap.state.p_m[0], ap.state.p_m[1], ap.state.p_m[2]]);
@@ -190,7 +195,16 @@ pub fn run_with_streams(
             latencies_ms.push(t0.elapsed().as_secs_f64() * 1e3);
             match cmd {
                 Command::Keep => {}
-                Command::Replace(s) => ap.replace_stack(&mut stack, s),
+                Command::Replace(s) => {
+                    ap.replace_stack(&mut stack, s);
+                    if let Some(t) = stack.target()
+                        && t.kind == ItemKind::Avoid
+                        && last_target != Some(t.p_m)
+                    {
+                        avoid_targets += 1;
+                    }
+                    last_target = stack.target().map(|t| t.p_m);
+                }
                 Command::Steer {
                     turn_rate_rad_s,
                     hold_s,
@@ -207,6 +221,13 @@ pub fn run_with_streams(
             if stack.items[idx].kind == ItemKind::Avoid {
                 added += 1;
             }
+            if let Some(t) = stack.target()
+                && t.kind == ItemKind::Avoid
+                && last_target != Some(t.p_m)
+            {
+                avoid_targets += 1;
+            }
+            last_target = stack.target().map(|t| t.p_m);
         }
         path_len += crate::geometry::dist(before, xy(ap.state.p_m));
         step += 1;
@@ -246,6 +267,7 @@ pub fn run_with_streams(
         },
         min_clearance_m: jr.min_clearance_m,
         waypoints_added: added,
+        avoid_targets,
         boundary_violation_s: jr.boundary_violation_s,
         boundary_excursions: jr.boundary_excursions,
         replans: latencies_ms.len(),

@@ -72,8 +72,10 @@ pub struct SummaryRow {
     pub path_ratio: f64,
     /// Median of the runs' minimum clearance, metres.
     pub min_clearance_p50_m: f64,
-    /// Mean avoid waypoints flown.
+    /// Mean avoid waypoints reached.
     pub waypoints_added: f64,
+    /// Mean distinct avoid waypoints flown toward.
+    pub avoid_targets: f64,
     /// Mean seconds outside the fly zone.
     pub boundary_violation_s: f64,
     /// Median strategy latency over all calls, ms.
@@ -207,6 +209,7 @@ fn summarise(
         path_ratio: mean(&|r| r.metrics.path_ratio),
         min_clearance_p50_m: percentile(&clear, 0.5),
         waypoints_added: mean(&|r| r.metrics.waypoints_added as f64),
+        avoid_targets: mean(&|r| r.metrics.avoid_targets as f64),
         boundary_violation_s: mean(&|r| r.metrics.boundary_violation_s),
         replan_p50_ms: percentile(&lat, 0.5),
         replan_p95_ms: percentile(&lat, 0.95),
