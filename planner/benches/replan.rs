@@ -1,5 +1,6 @@
 //! Full replan on the Webster Field mission (14 waypoints, its 6 cylinders) with 10
-//! moving obstacles and a 60 s horizon.
+//! moving obstacles and a 60 s horizon. The risk map uses 10 m cells and 1 s slices over
+//! the fly zone's box plus 100 m, as the server does.
 //!
 //! Variants:
 //! - `riskmap_incremental_update_and_plan`: one new observation of one obstacle, the
