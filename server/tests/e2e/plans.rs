@@ -242,3 +242,46 @@ async fn insert_waypoint_answers_the_seed_004_example(app: App) {
         vec!["/obstacle/radius_m".to_string()]
     );
 }
+
+#[test]
+fn jink_plan_prints_the_same_plan_offline_for_the_same_seed() {
+    let mission = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/fixtures/interop/mission_2021_webster_field.json");
+    let dir = tempfile::tempdir().unwrap();
+    let obs = dir.path().join("obs.json");
+    let list: Vec<Value> = (0..=10)
+        .map(|k| {
+            json!({"obstacle_id": "0", "t": 1_700_000_000 + k, "lat": 38.1455, "lon": -76.4245 - 0.00005 * f64::from(k),
+                   "alt_msl_m": 60.0, "radius_m": 20.0})
+        })
+        .collect();
+    std::fs::write(&obs, json!({ "observations": list }).to_string()).unwrap();
+    let run = || {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
+            .args(["plan", "--mission"])
+            .arg(&mission)
+            .arg("--obstacles")
+            .arg(&obs)
+            .args(["--seed", "11"])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<Value>(&out.stdout).unwrap()
+    };
+    let (a, b) = (run(), run());
+    assert_eq!(a["seed"], 11);
+    assert_eq!(a["dynamic_risk"]["source"], "risk_map");
+    assert_eq!(a["waypoints"], b["waypoints"]);
+    let idx: Vec<u64> = a["waypoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|w| w["mission_index"].as_u64())
+        .collect();
+    assert_eq!(idx, (0..14).collect::<Vec<u64>>());
+    assert!(a["risk"].as_f64().unwrap() <= a["base_risk"].as_f64().unwrap());
+}
