@@ -19,6 +19,35 @@
 //! Every random draw comes from a ChaCha8 generator seeded per sub-leg from the plan seed,
 //! the leg's stack position and the sub-leg's index, so the same inputs and seed give the
 //! same plan bit for bit, however the caller schedules threads.
+//!
+//! # Example
+//! ```
+//! use planner::{plan, Aircraft, AircraftState, Cylinder, Mission, PlanOutcome, PlanParams, PlanRequest, Waypoint};
+//! use planner::stack::mission_stack;
+//! let mission = Mission {
+//!     fly_zones: vec![],
+//!     cylinders: vec![Cylinder { center_m: [500.0, 10.0], radius_m: 50.0, top_m: 200.0 }],
+//!     waypoints: vec![
+//!         Waypoint { p_m: [0.0, 0.0], alt_m: 100.0 },
+//!         Waypoint { p_m: [1000.0, 0.0], alt_m: 100.0 },
+//!     ],
+//! };
+//! let stack = mission_stack(&mission);
+//! let req = PlanRequest {
+//!     mission: &mission,
+//!     aircraft: Aircraft { speed_mps: 20.0, turn_radius_m: 40.0 },
+//!     stack: &stack,
+//!     current_index: 1, // flying toward waypoint 1
+//!     state: AircraftState { p_m: [0.0, 0.0], alt_m: 100.0, heading_rad: std::f64::consts::FRAC_PI_2, speed_mps: 20.0, t_s: 0.0 },
+//!     params: PlanParams::default(),
+//!     seed: 42,
+//! };
+//! let p = plan(&req, &predictor::NoRisk).unwrap();
+//! assert_eq!(p.outcome, PlanOutcome::Exact);
+//! assert_eq!(p.added, 1); // one avoid item round the cylinder (seed 004)
+//! assert_eq!(p.diff.first_changed, Some(1));
+//! assert_eq!(p.diff.apply(&stack), p.items);
+//! ```
 
 use std::time::Instant;
 

@@ -282,6 +282,23 @@ fn a_deadline_already_passed_returns_the_pre_pass_plan_as_a_timeout() {
 }
 
 #[test]
+fn plans_computed_on_other_threads_are_identical() {
+    let m = webster();
+    let field = synthetic_movers(&m, 10, 5);
+    let stack = mission_stack(&m);
+    let st = state_at(m.waypoints[0].p_m, m.waypoints[0].alt_m);
+    let req = request(&m, &stack, 1, st, 99);
+    let here = plan(&req, &field).unwrap();
+    let there: Vec<planner::Plan> = std::thread::scope(|s| {
+        let hs: Vec<_> = (0..2)
+            .map(|_| s.spawn(|| plan(&req, &field).unwrap()))
+            .collect();
+        hs.into_iter().map(|h| h.join().unwrap()).collect()
+    });
+    assert!(there.iter().all(|p| *p == here));
+}
+
+#[test]
 fn leg_seeds_are_fixed() {
     // Pin the derived seeds: stored plans must replay after upgrades.
     assert_eq!(leg_seed(0, 0, 0), leg_seed(0, 0, 0));
