@@ -7,7 +7,8 @@
 //! index, at the current time). Dynamic risk: the stored obstacle observations of the last
 //! two minutes are fed to a `predictor::Predictor` and its risk map (10 m cells, 1 s slices
 //! over the horizon) is the planner's risk field; with no observations there is no dynamic
-//! risk. Every plan is stored with its inputs (start, base stack, observations, parameters)
+//! risk. The least predictable obstacle stage sets the search's sample budget (NoFly 1.0,
+//! Random 0.8, Advanced 0.5, Memory 0.3 as the variability hint). Every plan is stored with its inputs (start, base stack, observations, parameters)
 //! and seed, so [`compute`] on the stored inputs replays it (bit for bit unless the deadline
 //! cut the search short).
 
@@ -22,7 +23,7 @@ use utoipa_axum::{router::OpenApiRouter, routes};
 
 use planner::export::{GeoItem, GeoPoint, PlanFileOptions, qgc_plan, qgc_wpl};
 use planner::{ItemKind, PlanOutcome, PlanParams, PlanRequest, StackItem, Strategy};
-use predictor::{NoRisk, Observation, Predictor, PredictorConfig, RiskField, RiskMapConfig};
+use predictor::{NoRisk, Observation, Predictor, PredictorConfig, RiskField, RiskMapConfig, Stage};
 
 use crate::app::AppState;
 use crate::error::{ApiError, Problem};
@@ -449,9 +450,23 @@ pub fn compute(mission: &Mission, inputs: &PlanInputs) -> Result<Computed, ApiEr
         Some(m) => m,
         None => &NoRisk,
     };
+    // Sample budget: the least predictable stage among the obstacles sets the variability
+    // hint (seed 002: more variable obstacles earn more samples).
+    let variability = pred
+        .obstacles()
+        .map(|o| match o.stage {
+            Stage::NoFly => 1.0,
+            Stage::Random => 0.8,
+            Stage::Advanced => 0.5,
+            Stage::Memory => 0.3,
+        })
+        .fold(None, |acc: Option<f64>, v| {
+            Some(acc.map_or(v, |a| a.max(v)))
+        });
     let mut params = PlanParams::default()
         .horizon_s(inputs.horizon_s)
         .deadline(deadline);
+    params.variability = variability;
     params.strategy = match inputs.strategy {
         StrategyIn::Bisection => Strategy::Bisection,
         StrategyIn::Insertion => Strategy::Insertion,
