@@ -42,6 +42,8 @@ pub struct AppState {
     pub settings: Arc<Settings>,
     /// Bounds concurrent CPU-heavy jobs (planning, risk maps) run with `spawn_blocking`.
     pub cpu: Arc<Semaphore>,
+    /// Per-mission obstacle predictors (built lazily from the store).
+    pub predict: Arc<crate::predict::PredictorCache>,
 }
 
 impl AppState {
@@ -53,6 +55,7 @@ impl AppState {
             metrics: Arc::new(Metrics::default()),
             settings: Arc::new(settings),
             cpu: Arc::new(Semaphore::new(cores)),
+            predict: Arc::default(),
         }
     }
 

@@ -14,6 +14,7 @@ pub mod missions;
 pub mod operator;
 pub mod plans;
 pub mod reactive;
+pub mod risk;
 pub mod telemetry;
 
 /// The document's fixed parts; paths and schemas come from the routers.
@@ -33,6 +34,7 @@ risk maps, avoidance plans and exports. Errors are RFC 9457 application/problem+
         (name = "service", description = "Health, metrics and the API description"),
         (name = "plans", description = "Avoidance plans: revised waypoint stacks, diffs and exports"),
         (name = "avoid", description = "Seed 004 waypoint insertion for one leg and one obstacle; stateless"),
+        (name = "prediction", description = "Obstacle characterization (stages, estimates, stage history) and risk maps (seed 002)"),
         (name = "reactive", description = "Onboard LiDAR avoiders (offset algorithm, Bezier pilot, sectors); stateless"),
     )
 )]
@@ -48,6 +50,7 @@ pub fn router() -> OpenApiRouter<AppState> {
         .merge(reactive::router())
         .merge(plans::router())
         .merge(avoid::router())
+        .merge(risk::router())
     // jink:routes -- register each new API module above this line with `.merge(module::router())`
 }
 

@@ -190,6 +190,7 @@ async fn post_obstacles(
         .insert_observations(&id, &rows, received)
         .await?
         .ok_or_else(|| ApiError::not_found("mission", &id))?;
+    state.predict.feed(&id, &rows);
     Ok((StatusCode::ACCEPTED, axum::Json(counts.into())))
 }
 

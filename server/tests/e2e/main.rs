@@ -7,6 +7,7 @@ mod durability;
 mod errors;
 mod missions;
 mod plans;
+mod predictor;
 mod reactive;
 mod service;
 mod telemetry;
