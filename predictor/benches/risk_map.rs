@@ -18,8 +18,18 @@ use std::time::{Duration, Instant};
 
 const N: usize = 10;
 
+/// The default map (5 m cells, 256 particles) unless `JINK_BENCH_CELL_M` /
+/// `JINK_BENCH_PARTICLES` say otherwise (to measure the trade-off).
 fn map_cfg() -> RiskMapConfig {
-    RiskMapConfig::default().bounds([-750.0, -750.0], [750.0, 750.0])
+    let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
+    let mut c = RiskMapConfig::default().bounds([-750.0, -750.0], [750.0, 750.0]);
+    if let Some(cell) = env("JINK_BENCH_CELL_M") {
+        c = c.cell_m(cell);
+    }
+    if let Some(n) = env("JINK_BENCH_PARTICLES") {
+        c = c.particles(n as usize);
+    }
+    c
 }
 
 /// The predictor after 120 s, and each obstacle's next 100 s of observations.

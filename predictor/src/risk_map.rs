@@ -9,19 +9,26 @@
 //! time instead of being gridded. Obstacles combine as `1 - prod(1 - p_i)`.
 //!
 //! Data layout, chosen for the speed targets (incremental update of one obstacle <= 1 ms,
-//! full rebuild of 10 <= 10 ms, >= 20 M queries/s):
+//! full rebuild of 10 <= 10 ms, >= 20 M queries/s; see the bench for what is met):
 //! - one dense `f32` grid per slice holding `q = prod(1 - p_i)`; a query is one load
 //!   (`risk = 1 - q`, nearest slice and nearest cell, with precomputed reciprocals);
-//! - per obstacle and slice a sparse list of `(cell, 1 - p, 1 / (1 - p))` with `1 - p`
-//!   clamped to at least `1e-6`, so that an obstacle's contribution is removed and added by
-//!   multiplications touching only its own cells: an observation of one obstacle redoes
-//!   only that obstacle. The rounding drift of remove-then-add (f32, ~1e-7 per update) is
-//!   wiped whenever the map is re-anchored or rebuilt (cells reset to exactly 1);
-//! - splatting: particles are merged per cell, then each occupied cell stamps the disc
-//!   stencil into a dense buffer over the slice's bounding box with contiguous row
-//!   additions, and the non-zero cells become the slice's entries;
+//! - per obstacle and slice, runs of consecutive cells with a `u16` particle count per
+//!   cell (`p = count / particles`, exact, so mass is conserved exactly); `1 - p`
+//!   (clamped to at least 1e-6) and its inverse come from tables, so an obstacle's
+//!   contribution is removed and added by multiplications touching only its own cells: an
+//!   observation of one obstacle redoes only that obstacle. The rounding drift of
+//!   remove-then-add (f32, ~1e-7 per update) is wiped whenever the map is re-anchored or
+//!   rebuilt (cells reset to exactly 1);
+//! - splatting: particles are merged per cell, then each occupied cell adds its count at
+//!   the start and subtracts it after the end of each stencil row in a grid-sized
+//!   row-difference scratch (two operations per stamp and row); a prefix sum along each
+//!   touched row span yields the counts, folds them into `q` and re-zeroes the scratch;
 //! - per obstacle and slice a bounding box and peak probability, which answer
 //!   `segment_risk_bound` without touching the grid.
+//!
+//! The cost of an update is dominated by the number of cells an obstacle covers over the
+//! horizon (a Random-stage obstacle's cloud grows with time), and in particular by the
+//! cache misses of the read-modify-write of `q`; 10 m cells cost a quarter of 5 m cells.
 //!
 //! Threat filtering: an obstacle enters the map only if the intended path (ENU polyline)
 //! passes within `radius + buffer + reach` of its position, where reach is the distance its
@@ -149,9 +156,11 @@ struct Contribution {
     /// Not a threat: contributes nothing.
     filtered: bool,
     disc: Option<Disc>,
-    /// `(cell, 1 - p, 1 / (1 - p))`: removal is a multiplication too.
-    entries: Vec<Entry>,
-    /// `slice_start[k]..slice_start[k+1]` are slice k's entries.
+    /// Runs of consecutive cells; `counts[run.start..run.start + run.len]` are the numbers
+    /// of particles whose stencil covers each cell (`p = count / particles`).
+    runs: Vec<Run>,
+    counts: Vec<u16>,
+    /// `slice_start[k]..slice_start[k+1]` are slice k's runs.
     slice_start: Vec<u32>,
     /// Per slice `[x0, y0, x1, y1]` in metres (empty when x0 > x1), and peak probability.
     bbox_m: Vec<[f64; 4]>,
@@ -159,10 +168,12 @@ struct Contribution {
 }
 
 #[derive(Debug, Clone, Copy)]
-struct Entry {
+struct Run {
+    /// First cell (index within the slice).
     idx: u32,
-    omp: f32,
-    inv: f32,
+    len: u32,
+    /// Offset into `counts`.
+    start: u32,
 }
 
 #[derive(Debug, Clone)]
@@ -187,15 +198,22 @@ pub struct RiskMap {
     contrib: BTreeMap<String, Contribution>,
     discs: Vec<Disc>,
     stencils: Vec<(u64, Stencil)>,
-    acc: Vec<f32>,
+    acc: Vec<u32>,
+    /// `1 - count / particles` (at least 1e-6) and its inverse, by count.
+    omp_table: Vec<f32>,
+    inv_table: Vec<f32>,
     mark: Vec<u32>,
     stamp_gen: u32,
     centres: Vec<u32>,
-    boxbuf: Vec<f32>,
+    /// Row-difference scratch of particle counts, `(nx + 1) * ny`, all zero between
+    /// slices.
+    diff: Vec<i32>,
+    /// Touched span per grid row (empty = `(MAX, MIN)`), and the rows touched.
     row_span: Vec<(i32, i32)>,
+    rows_touched: Vec<u32>,
     cur_slice: usize,
     spare: Vec<Contribution>,
-    stamps: Vec<(i32, i32, f32)>,
+    stamps: Vec<(i32, i32, u32)>,
 }
 
 /// One slice of the map for rendering: row-major from the south-west corner, `data[iy *
@@ -271,8 +289,8 @@ impl RiskMap {
         if !pos(cfg.max_m[0] - cfg.min_m[0]) || !pos(cfg.max_m[1] - cfg.min_m[1]) {
             return Err(RiskMapError::NotPositive("max_m - min_m"));
         }
-        if cfg.particles == 0 {
-            return Err(RiskMapError::NotPositive("particles"));
+        if cfg.particles == 0 || cfg.particles > usize::from(u16::MAX) {
+            return Err(RiskMapError::NotPositive("particles (1 ..= 65535)"));
         }
         if !(cfg.buffer_m.is_finite() && cfg.buffer_m >= 0.0) {
             return Err(RiskMapError::NotPositive("buffer_m"));
@@ -297,12 +315,19 @@ impl RiskMap {
             contrib: BTreeMap::new(),
             discs: Vec::new(),
             stencils: Vec::new(),
-            acc: vec![0.0; nx * ny],
+            acc: vec![0; nx * ny],
+            omp_table: (0..=cfg.particles)
+                .map(|c| (1.0 - c as f32 / cfg.particles as f32).max(1e-6))
+                .collect(),
+            inv_table: (0..=cfg.particles)
+                .map(|c| 1.0 / (1.0 - c as f32 / cfg.particles as f32).max(1e-6))
+                .collect(),
             mark: vec![0; nx * ny],
             stamp_gen: 0,
             centres: Vec::new(),
-            boxbuf: Vec::new(),
-            row_span: Vec::new(),
+            diff: vec![0; (nx + 1) * ny],
+            row_span: vec![(i32::MAX, i32::MIN); ny],
+            rows_touched: Vec::new(),
             cur_slice: 0,
             spare: Vec::new(),
             stamps: Vec::new(),
@@ -367,14 +392,20 @@ impl RiskMap {
             return None;
         }
         let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
-        let sum: f64 = c.entries[r].iter().map(|e| 1.0 - f64::from(e.omp)).sum();
-        Some(sum * self.cfg.cell_m * self.cfg.cell_m)
+        let n: u64 = c.runs[r]
+            .iter()
+            .flat_map(|run| &c.counts[run.start as usize..(run.start + run.len) as usize])
+            .map(|&x| u64::from(x))
+            .sum();
+        Some(n as f64 / self.cfg.particles as f64 * self.cfg.cell_m * self.cfg.cell_m)
     }
 
     /// Number of grid cells (over all slices) obstacle `id` contributes to: the work an
     /// incremental update of it costs.
     pub fn obstacle_cells(&self, id: &str) -> Option<usize> {
-        self.contrib.get(id).map(|c| c.entries.len())
+        self.contrib
+            .get(id)
+            .map(|c| c.counts.iter().filter(|&&x| x > 0).count())
     }
 
     /// Area of the splat stencil of a sphere of `radius_m` (plus the buffer), square metres.
@@ -430,15 +461,17 @@ impl RiskMap {
         for c in self.contrib.values() {
             for k in 0..c.slice_start.len().saturating_sub(1) {
                 let base = k * cells;
-                for e in &c.entries[c.slice_start[k] as usize..c.slice_start[k + 1] as usize] {
-                    self.q[base + e.idx as usize] = 1.0;
+                for run in &c.runs[c.slice_start[k] as usize..c.slice_start[k + 1] as usize] {
+                    let a = base + run.idx as usize;
+                    self.q[a..a + run.len as usize].fill(1.0);
                 }
             }
         }
         // Keep the allocations for the next rebuild.
         let old = std::mem::take(&mut self.contrib);
         self.spare.extend(old.into_values().map(|mut c| {
-            c.entries.clear();
+            c.runs.clear();
+            c.counts.clear();
             c.slice_start.clear();
             c
         }));
@@ -458,12 +491,15 @@ impl RiskMap {
         for k in 0..self.n_slices.min(c.slice_start.len().saturating_sub(1)) {
             let base = k * cells;
             let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
-            for e in &c.entries[r] {
-                let q = &mut self.q[base + e.idx as usize];
-                *q *= e.inv;
-                // Snap the rounding drift of multiply-then-divide back to exactly 1.
-                if *q > 1.0 - 1e-6 {
-                    *q = 1.0;
+            for run in &c.runs[r] {
+                let a = base + run.idx as usize;
+                let counts = &c.counts[run.start as usize..(run.start + run.len) as usize];
+                for (q, &n) in self.q[a..a + run.len as usize].iter_mut().zip(counts) {
+                    *q *= self.inv_table[usize::from(n)];
+                    // Snap the rounding drift of multiply-then-divide back to exactly 1.
+                    if *q > 1.0 - 1e-6 {
+                        *q = 1.0;
+                    }
                 }
             }
         }
@@ -489,7 +525,8 @@ impl RiskMap {
         self.subtract(&c);
         c.filtered = false;
         c.disc = None;
-        c.entries.clear();
+        c.runs.clear();
+        c.counts.clear();
         c.slice_start.clear();
         c.bbox_m.clear();
         c.max_p.clear();
@@ -520,7 +557,7 @@ impl RiskMap {
         let n = self.cfg.particles;
         let mut rng = ChaCha8Rng::seed_from_u64(self.cfg.seed ^ fnv1a(o.id));
         let mut prop = Propagator::new(o.model, n, &mut rng);
-        let w = 1.0 / n as f32;
+        let all = n as u32;
         c.slice_start.push(0);
         for k in 0..self.n_slices {
             let tk = self.slice_time(k);
@@ -531,13 +568,13 @@ impl RiskMap {
                     .track
                     .position_at(tk, f64::INFINITY)
                     .unwrap_or(o.model.position_m);
-                self.add_particle(p, 1.0);
+                self.add_particle(p, all);
             } else if o.model.speed_mps <= 0.0 {
-                self.add_particle(o.model.position_m, 1.0);
+                self.add_particle(o.model.position_m, all);
             } else {
                 prop.advance_to(tk, &mut rng);
                 for i in 0..n {
-                    self.add_particle([prop.x[i], prop.y[i]], w);
+                    self.add_particle([prop.x[i], prop.y[i]], 1);
                 }
             }
             self.finish_slice(si, c);
@@ -556,7 +593,7 @@ impl RiskMap {
 
     /// Merges a particle into its cell; a particle outside the grid is stamped on its own
     /// (its stencil may still reach the grid).
-    fn add_particle(&mut self, p: [f64; 2], w: f32) {
+    fn add_particle(&mut self, p: [f64; 2], w: u32) {
         let fx = ((p[0] - self.cfg.min_m[0]) * self.inv_cell).floor();
         let fy = ((p[1] - self.cfg.min_m[1]) * self.inv_cell).floor();
         if fx < 0.0 || fy < 0.0 || fx >= self.nx as f64 || fy >= self.ny as f64 {
@@ -576,6 +613,7 @@ impl RiskMap {
 
     /// Splats the slice's merged centres into a dense buffer over their bounding box
     /// (contiguous row additions), then keeps the non-zero cells as the slice's entries.
+    #[inline(never)]
     fn finish_slice(&mut self, si: usize, c: &mut Contribution) {
         let nx = self.nx as i32;
         let ny = self.ny as i32;
@@ -614,17 +652,13 @@ impl RiskMap {
         ];
         let mut max_p: f32 = 0.0;
         if bx0 <= bx1 && by0 <= by1 && !self.stamps.is_empty() {
-            // Row differences: each stencil row adds +w at its first cell and -w just after
-            // its last; a prefix sum along each row then gives the splat. Two operations
-            // per stamp and row, whatever the stencil's width.
-            let bw = (bx1 - bx0 + 1) as usize;
-            let bh = (by1 - by0 + 1) as usize;
-            let stride = bw + 1;
-            self.boxbuf.clear();
-            self.boxbuf.resize(stride * bh, 0.0);
-            // Per box row, the touched span: the scan below skips the empty rest.
-            self.row_span.clear();
-            self.row_span.resize(bh, (i32::MAX, i32::MIN));
+            // Row differences into the grid-sized scratch (kept all zero between slices):
+            // each stencil row adds +w at its first cell and -w just after its last; a
+            // prefix sum along the row's touched span then gives the splat, and the scan
+            // zeroes the scratch behind it. Two operations per stamp and row, whatever the
+            // stencil's width, and no clearing of untouched cells.
+            let stride = self.nx + 1;
+            self.rows_touched.clear();
             for &(cx, cy, w) in &self.stamps {
                 for &(dy, hw) in &stencil.rows {
                     let y = cy + dy;
@@ -636,69 +670,95 @@ impl RiskMap {
                     if x0 > x1 {
                         continue;
                     }
-                    let yy = (y - by0) as usize;
-                    let row = yy * stride;
-                    self.boxbuf[row + (x0 - bx0) as usize] += w;
-                    self.boxbuf[row + (x1 - bx0) as usize + 1] -= w;
-                    let span = &mut self.row_span[yy];
-                    span.0 = span.0.min(x0 - bx0);
-                    span.1 = span.1.max(x1 - bx0);
+                    let row = y as usize * stride;
+                    self.diff[row + x0 as usize] += w as i32;
+                    self.diff[row + x1 as usize + 1] -= w as i32;
+                    let span = &mut self.row_span[y as usize];
+                    if span.0 > span.1 {
+                        self.rows_touched.push(y as u32);
+                    }
+                    span.0 = span.0.min(x0);
+                    span.1 = span.1.max(x1);
                 }
             }
+            self.rows_touched.sort_unstable();
             let (mut ix0, mut iy0, mut ix1, mut iy1) = (usize::MAX, usize::MAX, 0, 0);
-            c.entries.reserve(bw * bh / 2);
-            // The smallest real value is one particle's weight; f32 differences leave
-            // crumbs of ~1e-7 where a row should be 0.
-            let eps = 0.25 / self.cfg.particles as f32;
             let qbase = self.cur_slice * self.nx * self.ny;
-            for yy in 0..bh {
-                let (lo, hi) = self.row_span[yy];
-                if lo > hi {
-                    continue;
-                }
+            let mut max_count = 0u32;
+            for &gy in &self.rows_touched {
+                let gy = gy as usize;
+                let (lo, hi) = std::mem::replace(&mut self.row_span[gy], (i32::MAX, i32::MIN));
                 let (lo, hi) = (lo as usize, hi as usize);
-                let row = &self.boxbuf[yy * stride + lo..=yy * stride + hi];
-                let gy = by0 as usize + yy;
-                let gbase = gy * self.nx + bx0 as usize + lo;
-                let before = c.entries.len();
-                let mut acc = 0.0f32;
-                for (xx, &d) in row.iter().enumerate() {
-                    acc += d;
-                    if acc > eps {
-                        let p = acc.min(1.0);
-                        let omp = (1.0 - p).max(1e-6);
-                        max_p = max_p.max(p);
-                        let idx = gbase + xx;
+                let row = &mut self.diff[gy * stride + lo..=gy * stride + hi + 1];
+                let gbase = gy * self.nx + lo;
+                let (last, body) = row.split_last_mut().expect("span is not empty");
+                *last = 0;
+                let mut acc = 0i32;
+                // Open run: (first cell, counts offset); a gap of GAP zero cells closes it.
+                const GAP: usize = 8;
+                let mut open: Option<(usize, usize)> = None;
+                let mut zeros = 0usize;
+                let mut row_first = usize::MAX;
+                let mut row_last = 0usize;
+                for (xx, d) in body.iter_mut().enumerate() {
+                    acc += *d;
+                    *d = 0;
+                    if acc > 0 {
+                        let n = acc as u32;
+                        max_count = max_count.max(n);
+                        if open.is_none() {
+                            open = Some((xx, c.counts.len()));
+                        } else {
+                            // Keep the short gap inside the run (zero counts).
+                            c.counts.extend(std::iter::repeat_n(0, zeros));
+                        }
+                        zeros = 0;
+                        c.counts.push(n as u16);
                         // Fold the contribution into the combined grid in the same pass.
-                        self.q[qbase + idx] *= omp;
-                        c.entries.push(Entry {
-                            idx: idx as u32,
-                            omp,
-                            inv: 1.0 / omp,
-                        });
+                        self.q[qbase + gbase + xx] *= self.omp_table[n as usize];
+                        row_first = row_first.min(xx);
+                        row_last = xx;
+                    } else if let Some((x_start, start)) = open {
+                        zeros += 1;
+                        if zeros >= GAP {
+                            let len = c.counts.len() - start;
+                            c.runs.push(Run {
+                                idx: (gbase + x_start) as u32,
+                                len: len as u32,
+                                start: start as u32,
+                            });
+                            open = None;
+                            zeros = 0;
+                        }
                     }
                 }
-                if c.entries.len() > before {
-                    let first = c.entries[before].idx as usize - gbase + lo;
-                    let last = c.entries[c.entries.len() - 1].idx as usize - gbase + lo;
-                    ix0 = ix0.min(first);
-                    ix1 = ix1.max(last);
+                if let Some((x_start, start)) = open {
+                    let len = c.counts.len() - start;
+                    c.runs.push(Run {
+                        idx: (gbase + x_start) as u32,
+                        len: len as u32,
+                        start: start as u32,
+                    });
+                }
+                if row_first != usize::MAX {
+                    ix0 = ix0.min(lo + row_first);
+                    ix1 = ix1.max(lo + row_last);
                     iy0 = iy0.min(gy);
                     iy1 = iy1.max(gy);
                 }
             }
+            max_p = (max_count as f32 / self.cfg.particles as f32).min(1.0);
             if ix0 != usize::MAX {
                 let cm = self.cfg.cell_m;
-                let (gx0, gx1) = (bx0 as usize + ix0, bx0 as usize + ix1);
                 bb = [
-                    self.cfg.min_m[0] + gx0 as f64 * cm,
+                    self.cfg.min_m[0] + ix0 as f64 * cm,
                     self.cfg.min_m[1] + iy0 as f64 * cm,
-                    self.cfg.min_m[0] + (gx1 + 1) as f64 * cm,
+                    self.cfg.min_m[0] + (ix1 + 1) as f64 * cm,
                     self.cfg.min_m[1] + (iy1 + 1) as f64 * cm,
                 ];
             }
         }
-        c.slice_start.push(c.entries.len() as u32);
+        c.slice_start.push(c.runs.len() as u32);
         c.bbox_m.push(bb);
         c.max_p.push(max_p);
     }
