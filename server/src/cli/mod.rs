@@ -8,6 +8,7 @@ pub mod openapi;
 pub mod plan;
 pub mod reactive;
 pub mod serve;
+pub mod simulate;
 
 /// jink: ground-station planning service for fixed-wing UAVs on SUAS-style missions.
 #[derive(Debug, Parser)]
@@ -29,6 +30,8 @@ pub enum Command {
     Reactive(reactive::ReactiveArgs),
     /// Plan offline: print the plan JSON for a mission file and an observations file.
     Plan(plan::PlanArgs),
+    /// Simulate the avoidance strategies in closed loop and score them as the judges did.
+    Simulate(simulate::SimulateArgs),
     // jink:subcommands -- add a variant here and its arm in `run` below
 }
 
@@ -40,6 +43,7 @@ pub fn run() -> ExitCode {
         Command::Openapi => openapi::run(),
         Command::Reactive(args) => reactive::run(args),
         Command::Plan(args) => plan::run(args),
+        Command::Simulate(args) => simulate::run(args),
         // jink:dispatch
     }
 }

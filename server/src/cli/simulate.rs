@@ -1,0 +1,294 @@
+//! `jink simulate`: closed-loop simulation of the avoidance strategies against moving
+//! obstacles, scored the way the competition judges did (`sim` crate).
+//!
+//! Runs every chosen `(family, seed)` scenario with every chosen strategy on all cores,
+//! shows a progress bar, prints the Markdown summary, and writes `report.json`,
+//! `summary.md` and, for `--plot` seeds, one SVG per family, seed and strategy into `--out`.
+//! `--mission FILE` flies a real mission (native, interop 2017/2018 or 2019+ JSON, parsed as
+//! `POST /api/v1/missions` does, converted to the mission's ENU frame) with generated moving
+//! spheres instead of generated missions.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use sim::scenario::{Family, Scenario, generate, with_moving_spheres};
+use sim::strategy::StrategyKind;
+use sim::suite::{SuiteConfig, run_suite_on};
+
+use crate::interop::{detect_mission_format, parse_missions};
+use crate::mission::{Home, Mission};
+
+/// Flags of `jink simulate`.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// Scenario families, comma-separated: mixed, straight, random, biased, patterned,
+    /// spline, static.
+    #[arg(long, value_delimiter = ',', default_value = "mixed")]
+    pub family: Vec<String>,
+
+    /// Seeds per family (seeds `first_seed .. first_seed + N`).
+    #[arg(long, default_value_t = 200)]
+    pub seeds: u64,
+
+    /// First seed.
+    #[arg(long, default_value_t = 0)]
+    pub first_seed: u64,
+
+    /// Strategies, comma-separated (default: all): none, insertion, tangent, cv, mc-nofly,
+    /// mc-random, mc-advanced, mc-memory, mc-auto, offset, sectors.
+    #[arg(long, value_delimiter = ',')]
+    pub strategies: Option<Vec<String>>,
+
+    /// Output directory (created).
+    #[arg(long, default_value = "sim-out")]
+    pub out: PathBuf,
+
+    /// Seeds to plot as SVG (one file per family, seed and strategy).
+    #[arg(long, num_args = 1..)]
+    pub plot: Vec<u64>,
+
+    /// Fly this mission file (native or interop JSON) with generated moving spheres.
+    #[arg(long)]
+    pub mission: Option<PathBuf>,
+
+    /// Moving spheres generated for `--mission` (at most 10).
+    #[arg(long, default_value_t = 6)]
+    pub spheres: usize,
+
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+
+    /// Also write the prediction report (stages vs constant velocity per behaviour) over
+    /// this many seeds per behaviour (0 = skip).
+    #[arg(long, default_value_t = 0)]
+    pub prediction_seeds: u64,
+}
+
+/// Loads a mission file into the simulator's ENU mission (origin at home, or at the first
+/// fly-zone vertex; the aircraft starts at home at the first waypoint's altitude).
+///
+/// # Errors
+/// A message naming the problem.
+pub fn load_mission(path: &Path) -> Result<sim::mission::Mission, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| format!("{}: not JSON: {e}", path.display()))?;
+    let format = detect_mission_format(&v);
+    let (input, _) = parse_missions(v, format)
+        .map_err(|e| format!("{}: {e}", path.display()))?
+        .into_iter()
+        .next()
+        .ok_or_else(|| format!("{}: no mission", path.display()))?;
+    let first = input
+        .fly_zones
+        .first()
+        .and_then(|z| z.boundary.first())
+        .ok_or_else(|| format!("{}: the mission has no fly zone", path.display()))?;
+    let home = input.home.unwrap_or(Home {
+        lat: first.lat,
+        lon: first.lon,
+        alt_msl_m: None,
+    });
+    if input.waypoints.is_empty() {
+        return Err(format!("{}: the mission has no waypoints", path.display()));
+    }
+    let m = Mission {
+        id: "simulate".into(),
+        source_format: format,
+        created_at: String::new(),
+        home,
+        content: input,
+    };
+    let pm = crate::api::plans::planner_mission(&m);
+    let start = m.frame().to_enu(home.lat, home.lon);
+    let alt = pm.waypoints[0].alt_m;
+    Ok(sim::mission::Mission::from_planner(
+        &pm,
+        [start[0], start[1], alt],
+    ))
+}
+
+/// Runs the subcommand.
+pub fn run(args: SimulateArgs) -> ExitCode {
+    let mut families = Vec::new();
+    for f in &args.family {
+        match Family::parse(f) {
+            Some(f) => families.push(f),
+            None => {
+                eprintln!("jink simulate: unknown family {f:?}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let strategies = match &args.strategies {
+        None => StrategyKind::ALL.to_vec(),
+        Some(names) => {
+            let mut out = Vec::new();
+            for n in names {
+                match StrategyKind::parse(n) {
+                    Some(k) => out.push(k),
+                    None => {
+                        eprintln!("jink simulate: unknown strategy {n:?}");
+                        return ExitCode::FAILURE;
+                    }
+                }
+            }
+            out
+        }
+    };
+    let mission = match args.mission.as_deref().map(load_mission).transpose() {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("jink simulate: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if let Some(n) = args.threads {
+        // the global pool can only be built once per process: fine for a CLI
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global();
+    }
+    let cfg = SuiteConfig {
+        families,
+        seeds: (args.first_seed..args.first_seed + args.seeds).collect(),
+        strategies,
+        plot_seeds: args.plot.clone(),
+        ..SuiteConfig::default()
+    };
+    let make = |family: Family, seed: u64| -> Scenario {
+        match &mission {
+            Some(m) => with_moving_spheres(
+                m.clone(),
+                family,
+                seed,
+                args.spheres,
+                cfg.run.aircraft.speed_mps,
+            ),
+            None => generate(family, seed, &cfg.scenario),
+        }
+    };
+    let total = cfg.families.len() * cfg.seeds.len() * cfg.strategies.len();
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total as u64)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} runs, eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let report = run_suite_on(&cfg, &|done, _| bar.set_position(done as u64), make);
+    bar.finish_and_clear();
+    let table = sim::report::markdown_table(&report);
+    println!("{table}");
+    println!(
+        "{} runs in {:.1} s on {} threads",
+        report.runs.len(),
+        report.wall_s,
+        report.threads
+    );
+    for k in &cfg.strategies {
+        if let Some(tp) = report.throughput(*k) {
+            println!(
+                "  {:12} {:8.1} simulated mission-minutes per wall-second per core",
+                k.name(),
+                tp
+            );
+        }
+    }
+    if let Err(e) = write_outputs(&args.out, &report, &table, &make) {
+        eprintln!("jink simulate: {e}");
+        return ExitCode::from(2);
+    }
+    if args.prediction_seeds > 0 {
+        let params = sim::prediction::PredictionParams {
+            seeds: args.prediction_seeds,
+            ..Default::default()
+        };
+        let rows = sim::prediction::prediction_report(&sim::behaviour::BehaviourKind::ALL, &params);
+        let md = sim::prediction::prediction_markdown(&rows);
+        println!("\nPrediction (NLL in nats, 95% region coverage):\n{md}");
+        let json = serde_json::to_string_pretty(&rows).unwrap_or_default();
+        let res = std::fs::write(args.out.join("prediction.md"), &md)
+            .and_then(|()| std::fs::write(args.out.join("prediction.json"), json));
+        if let Err(e) = res {
+            eprintln!("jink simulate: cannot write the prediction report: {e}");
+            return ExitCode::from(2);
+        }
+    }
+    println!("wrote {}", args.out.display());
+    ExitCode::SUCCESS
+}
+
+fn write_outputs(
+    out: &Path,
+    report: &sim::suite::SuiteReport,
+    table: &str,
+    make: &dyn Fn(Family, u64) -> Scenario,
+) -> Result<(), String> {
+    std::fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let json = sim::report::json(report).map_err(|e| e.to_string())?;
+    let write = |name: &str, body: &str| {
+        let p = out.join(name);
+        std::fs::write(&p, body).map_err(|e| format!("cannot write {}: {e}", p.display()))
+    };
+    write("report.json", &json)?;
+    write("summary.md", table)?;
+    for (family, r) in &report.runs {
+        if r.track.is_empty() {
+            continue;
+        }
+        let s = make(*family, r.seed);
+        let svg = sim::svg::plot_run(&s, r);
+        write(
+            &format!("{}_{}_{}.svg", family.name(), r.seed, r.strategy.name()),
+            &svg,
+        )?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sim::geometry::{point_in_polygon, xy};
+
+    #[test]
+    fn the_webster_field_fixture_loads_into_the_simulators_enu_mission() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../shared/fixtures/interop/mission_2021_webster_field.json");
+        let m = load_mission(&path).unwrap();
+        assert_eq!(m.waypoints_m.len(), 14);
+        assert_eq!(m.cylinders.len(), 6);
+        assert_eq!(m.fly_zone_m.len(), 12);
+        // 100-750 ft band, waypoint altitudes 200-400 ft
+        assert!((m.alt_min_m - 30.48).abs() < 1e-9 && (m.alt_max_m - 228.6).abs() < 1e-9);
+        assert!(m.waypoints_m.iter().all(|w| w[2] >= 60.9 && w[2] <= 121.93));
+        // every waypoint inside the zone, the field about 1.2 km across
+        assert!(
+            m.waypoints_m
+                .iter()
+                .all(|w| point_in_polygon(xy(*w), &m.fly_zone_m))
+        );
+        let (lo, hi) = m.bounds_m();
+        assert!(
+            hi[0] - lo[0] > 800.0 && hi[0] - lo[0] < 2000.0,
+            "{lo:?} {hi:?}"
+        );
+    }
+
+    #[test]
+    fn a_missing_mission_file_is_a_clear_error() {
+        let e = load_mission(Path::new("/nonexistent/mission.json")).unwrap_err();
+        assert!(e.contains("cannot read"), "{e}");
+    }
+}
