@@ -332,4 +332,31 @@ mod tests {
             vec![false]
         );
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        #[test]
+        fn interpolation_keeps_every_sample_and_fills_short_gaps_every_tenth_of_a_second(
+            gaps in proptest::collection::vec(0.05f64..8.0, 1..12)
+        ) {
+            let mut t = 0.0;
+            let mut tel = vec![(0.0, [0.0, 0.0, 100.0])];
+            for (i, g) in gaps.iter().enumerate() {
+                t += g;
+                tel.push((t, [i as f64 * 10.0, 0.0, 100.0]));
+            }
+            let pts = interpolate(&tel);
+            for s in &tel {
+                proptest::prop_assert!(pts.iter().any(|p| p.0 == s.0));
+            }
+            for w in pts.windows(2) {
+                let dt = w[1].0 - w[0].0;
+                proptest::prop_assert!(dt > 0.0);
+                // a step longer than 0.1 s only across a gap longer than 5 s
+                if dt > JUDGE_STEP_S + 1e-9 {
+                    proptest::prop_assert!(dt > JUDGE_MAX_GAP_S);
+                }
+            }
+        }
+    }
 }
