@@ -409,7 +409,8 @@ async fn get_risk(
     Ok(out)
 }
 
-/// Renders a slice as a heatmap (white = no risk, through orange to dark red = certain),
+/// Renders a slice as a heatmap (white = no risk, pale yellow through orange to dark red =
+/// certain, on a square-root scale so that a spread cloud of a few percent shows),
 /// north up, with the fly zones (blue), waypoints (green), stationary cylinders (black)
 /// and moving obstacles at their last fitted position (magenta circle of their radius, a
 /// line showing 10 s at their estimated velocity). A 100 m scale bar sits bottom left.
@@ -521,6 +522,11 @@ fn heat(r: f32) -> [u8; 3] {
     };
     let r = r.clamp(0.0, 1.0);
     if r <= 0.005 {
+        return [250, 250, 250];
+    }
+    // Square root: a spread-out cloud of a few percent per cell is still visible.
+    let r = r.sqrt();
+    if r <= 0.0 {
         [250, 250, 250]
     } else if r < 0.5 {
         lerp([255.0, 240.0, 170.0], [255.0, 140.0, 0.0], r / 0.5)
