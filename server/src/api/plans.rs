@@ -192,8 +192,56 @@ pub struct PlanInputs {
     pub stack: Vec<PlanWaypoint>,
     /// The start.
     pub start: StartOut,
-    /// Observations fed to the predictor.
+    /// Observations fed to the predictor. Not stored with a server plan (it can be
+    /// thousands of rows): `observation_window` names them instead.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub observations: Vec<ObservationUsed>,
+    /// Which stored observations the plan used (server plans), for replay.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observation_window: Option<ObservationWindow>,
+}
+
+/// The stored observations a plan used: `after_us < t <= until_us`, received by
+/// `received_until_us` (Unix microseconds).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ObservationWindow {
+    /// Exclusive lower bound of observation time.
+    pub after_us: i64,
+    /// Inclusive upper bound of observation time.
+    pub until_us: i64,
+    /// Only observations received by then (the plan request's time).
+    pub received_until_us: i64,
+}
+
+impl ObservationWindow {
+    /// Fetches exactly these observations.
+    ///
+    /// # Errors
+    /// A database failure.
+    pub async fn fetch(
+        &self,
+        store: &crate::store::Store,
+        mission_id: &str,
+    ) -> Result<Vec<ObservationUsed>, ApiError> {
+        Ok(store
+            .list_observations_window(
+                mission_id,
+                self.after_us,
+                self.until_us,
+                self.received_until_us,
+            )
+            .await?
+            .into_iter()
+            .map(|o| ObservationUsed {
+                obstacle_id: o.obstacle_id,
+                t: o.t_s,
+                lat: o.lat_deg,
+                lon: o.lon_deg,
+                alt_msl_m: o.alt_msl_m,
+                radius_m: o.radius_m,
+            })
+            .collect())
+    }
 }
 
 /// How dynamic risk was obtained.
@@ -677,21 +725,12 @@ async fn create_plan(
         },
         None => stack_start(&mission, &stack, current_index, now),
     };
-    let observations = state
-        .store
-        .list_observations(&id, None, Some(start.t - OBSERVATION_WINDOW_S))
-        .await?
-        .into_iter()
-        .filter(|o| o.t_s <= start.t + 1e-6)
-        .map(|o| ObservationUsed {
-            obstacle_id: o.obstacle_id,
-            t: o.t_s,
-            lat: o.lat_deg,
-            lon: o.lon_deg,
-            alt_msl_m: o.alt_msl_m,
-            radius_m: o.radius_m,
-        })
-        .collect();
+    let window = ObservationWindow {
+        after_us: crate::time::to_us(start.t - OBSERVATION_WINDOW_S),
+        until_us: crate::time::to_us(start.t),
+        received_until_us: crate::time::to_us(now),
+    };
+    let observations = window.fetch(&state.store, &id).await?;
     let inputs = PlanInputs {
         seed: body.seed.unwrap_or_else(new_seed),
         strategy: body.strategy.unwrap_or_default(),
@@ -703,6 +742,7 @@ async fn create_plan(
         stack,
         start,
         observations,
+        observation_window: Some(window),
     };
     let (m2, in2) = (mission.clone(), inputs.clone());
     let computed = state.run_cpu(move || compute(&m2, &in2)).await??;
@@ -723,7 +763,13 @@ async fn create_plan(
         revision,
         created_at_s: now,
         seed: inputs.seed,
-        inputs: serde_json::to_string(&inputs).map_err(|e| ApiError::Internal(e.to_string()))?,
+        // The window names the observations; storing them again would cost up to ~1 MB
+        // per plan at 10 obstacles x 10 Hz x 120 s.
+        inputs: serde_json::to_string(&PlanInputs {
+            observations: Vec::new(),
+            ..inputs.clone()
+        })
+        .map_err(|e| ApiError::Internal(e.to_string()))?,
         body: serde_json::to_string(&out).map_err(|e| ApiError::Internal(e.to_string()))?,
     };
     match state.store.insert_plan(&row).await {
@@ -887,8 +933,80 @@ async fn get_plan(
 }
 
 /// Plan routes.
+/// The result of replaying a stored plan.
+#[derive(Debug, Serialize, ToSchema)]
+pub struct ReplayOut {
+    /// The plan replayed.
+    pub plan_id: String,
+    /// True when the replay reproduced the stored plan exactly (everything but
+    /// `compute_ms` and `created_at`).
+    pub identical: bool,
+    /// Why a replay may differ: `deadline` (the plan was cut short by `deadline_ms`, so it
+    /// is anytime), or null.
+    pub caveat: Option<String>,
+    /// The replayed plan.
+    pub replayed: PlanOut,
+}
+
+/// Replay a stored plan from its stored inputs and seed.
+///
+/// Recomputes the plan from exactly what it was computed from (the mission, the start, the
+/// base stack, the observations it used, the parameters and the seed) and says whether the
+/// result is identical. A plan with `deadline_ms` is anytime and may differ.
+#[utoipa::path(post, path = "/api/v1/missions/{id}/plans/{plan_id}/replay", tag = "plans",
+    params(("id" = String, Path, description = "Mission id"), ("plan_id" = String, Path, description = "Plan id")),
+    responses(
+        (status = 200, description = "The replayed plan and whether it matches the stored one", body = ReplayOut),
+        (status = 404, description = "No such mission or plan", body = crate::error::Problem, content_type = "application/problem+json"),
+    ))]
+async fn replay_plan(
+    State(state): State<AppState>,
+    Path((id, plan_id)): Path<(String, String)>,
+) -> Result<axum::Json<ReplayOut>, ApiError> {
+    let mission = super::missions::load(&state, &id).await?;
+    let row = state
+        .store
+        .get_plan(&id, &plan_id)
+        .await?
+        .ok_or_else(|| ApiError::not_found("plan", plan_id.clone()))?;
+    let mut inputs: PlanInputs =
+        serde_json::from_str(&row.inputs).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let stored: PlanOut =
+        serde_json::from_str(&row.body).map_err(|e| ApiError::Internal(e.to_string()))?;
+    if let Some(w) = inputs.observation_window {
+        inputs.observations = w.fetch(&state.store, &id).await?;
+    }
+    let in2 = inputs.clone();
+    let computed = state.run_cpu(move || compute(&mission, &in2)).await??;
+    let replayed = plan_out(
+        &id,
+        row.id.clone(),
+        row.revision,
+        stored.base_revision,
+        &inputs,
+        &computed,
+        row.created_at_s,
+    );
+    let strip = |p: &PlanOut| {
+        let mut v = serde_json::to_value(p).unwrap_or_default();
+        if let Some(o) = v.as_object_mut() {
+            o.remove("compute_ms");
+            o.remove("created_at");
+        }
+        v
+    };
+    Ok(axum::Json(ReplayOut {
+        plan_id: row.id,
+        identical: strip(&stored) == strip(&replayed),
+        caveat: inputs.deadline_ms.map(|_| "deadline".to_string()),
+        replayed,
+    }))
+}
+
+/// Plan routes.
 pub fn router() -> OpenApiRouter<AppState> {
     OpenApiRouter::new()
         .routes(routes!(create_plan))
         .routes(routes!(get_plan))
+        .routes(routes!(replay_plan))
 }

@@ -154,6 +154,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
         stack: Vec::new(),
         start: stack_start(&m, &[], current_index, t0),
         observations,
+        observation_window: None,
     };
     let computed = match compute(&m, &inputs) {
         Ok(c) => c,

@@ -374,6 +374,41 @@ impl Store {
             .collect()
     }
 
+    /// A mission's observations with `after_us < t <= until_us` that had been received by
+    /// `received_until_us`, ordered by time then obstacle: the exact set a plan used, for
+    /// replaying it later.
+    #[tracing::instrument(skip(self))]
+    pub async fn list_observations_window(
+        &self,
+        mission_id: &str,
+        after_us: i64,
+        until_us: i64,
+        received_until_us: i64,
+    ) -> Result<Vec<ObservationRow>, sqlx::Error> {
+        let rows = sqlx::query(
+            "SELECT obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m FROM obstacle_observations \
+             WHERE mission_id = $1 AND t_us > $2 AND t_us <= $3 AND received_at_us <= $4 ORDER BY t_us, obstacle_id",
+        )
+        .bind(mission_id.to_string())
+        .bind(after_us)
+        .bind(until_us)
+        .bind(received_until_us)
+        .fetch_all(&self.read)
+        .await?;
+        rows.iter()
+            .map(|r| {
+                Ok(ObservationRow {
+                    obstacle_id: r.try_get(0)?,
+                    t_s: from_us(r.try_get(1)?),
+                    lat_deg: r.try_get(2)?,
+                    lon_deg: r.try_get(3)?,
+                    alt_msl_m: r.try_get(4)?,
+                    radius_m: r.try_get(5)?,
+                })
+            })
+            .collect()
+    }
+
     /// Stores aircraft telemetry, all or none; a sample at an already stored time is a
     /// duplicate. `Ok(None)` when the mission does not exist.
     #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]

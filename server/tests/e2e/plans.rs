@@ -13,6 +13,7 @@ both_stores!(
     a_plan_downloads_as_json_qgc_wpl_and_qgc_plan,
     the_same_seed_replays_the_same_plan,
     insert_waypoint_answers_the_seed_004_example,
+    a_stored_plan_replays_identically_even_after_more_telemetry,
 );
 
 async fn webster_with_traffic(app: &App) -> String {
@@ -284,4 +285,56 @@ fn jink_plan_prints_the_same_plan_offline_for_the_same_seed() {
         .collect();
     assert_eq!(idx, (0..14).collect::<Vec<u64>>());
     assert!(a["risk"].as_f64().unwrap() <= a["base_risk"].as_f64().unwrap());
+}
+
+async fn a_stored_plan_replays_identically_even_after_more_telemetry(app: App) {
+    let id = webster_with_traffic(&app).await;
+    let p = plan(&app, &id, json!({"seed": 7})).await;
+    assert_eq!(p["dynamic_risk"]["obstacles"], 2, "{p}");
+    let plan_id = p["plan_id"].as_str().unwrap();
+    let replay_path = format!("/api/v1/missions/{id}/plans/{plan_id}/replay");
+    let r = app.client.post(app.url(&replay_path)).send().await.unwrap();
+    assert_eq!(r.status(), 200);
+    let v: Value = r.json().await.unwrap();
+    assert_eq!(v["identical"], true, "{v}");
+    assert_eq!(v["replayed"]["waypoints"], p["waypoints"]);
+    assert!(v["caveat"].is_null());
+
+    // Late observations inside the plan's time window (radio links reorder) arrive after
+    // the plan: the replay still uses exactly what the plan used.
+    let late: Vec<Value> = (0..5)
+        .map(|k| {
+            json!({"obstacle_id": "2", "t": 1_700_000_005.5 + f64::from(k), "lat": 38.1450,
+                        "lon": -76.4262, "alt_msl_m": 60.0, "radius_m": 30.0})
+        })
+        .collect();
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/obstacles"),
+            &json!({"observations": late}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    let v: Value = app
+        .client
+        .post(app.url(&replay_path))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(v["identical"], true, "{v}");
+    assert_eq!(v["replayed"]["dynamic_risk"]["obstacles"], 2, "{v}");
+    // A new plan sees the late obstacle.
+    let p2 = plan(&app, &id, json!({"seed": 7})).await;
+    assert_eq!(p2["dynamic_risk"]["obstacles"], 3, "{p2}");
+
+    let r = app
+        .client
+        .post(app.url(&format!("/api/v1/missions/{id}/plans/nope/replay")))
+        .send()
+        .await
+        .unwrap();
+    problem(r, 404).await;
 }
