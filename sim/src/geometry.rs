@@ -3,50 +3,11 @@
 //! Small free functions used by every other module of the simulator. Points are
 //! `[east_m, north_m]`.
 
-/// A point or vector in the ENU plane, metres.
-pub type P2 = [f64; 2];
+/// A point or vector in the ENU plane, metres (the planner's `Point`).
+pub type P2 = planner::geometry::Point;
 
-/// `a + b`.
-#[inline]
-pub fn add(a: P2, b: P2) -> P2 {
-    [a[0] + b[0], a[1] + b[1]]
-}
-
-/// `a - b`.
-#[inline]
-pub fn sub(a: P2, b: P2) -> P2 {
-    [a[0] - b[0], a[1] - b[1]]
-}
-
-/// `a * k`.
-#[inline]
-pub fn scale(a: P2, k: f64) -> P2 {
-    [a[0] * k, a[1] * k]
-}
-
-/// Dot product.
-#[inline]
-pub fn dot(a: P2, b: P2) -> f64 {
-    a[0] * b[0] + a[1] * b[1]
-}
-
-/// z-component of the cross product (positive when `b` is counter-clockwise of `a`).
-#[inline]
-pub fn cross(a: P2, b: P2) -> f64 {
-    a[0] * b[1] - a[1] * b[0]
-}
-
-/// Euclidean norm.
-#[inline]
-pub fn norm(a: P2) -> f64 {
-    a[0].hypot(a[1])
-}
-
-/// Distance between two points.
-#[inline]
-pub fn dist(a: P2, b: P2) -> f64 {
-    norm(sub(a, b))
-}
+// The vector algebra is the planner's own: one definition for both crates.
+pub use planner::geometry::{add, cross, dist, dot, norm, scale, sub};
 
 /// Unit vector of `a` (zero stays zero).
 #[inline]

@@ -18,6 +18,9 @@ use crate::time::{from_us, to_us};
 
 pub mod plans;
 
+/// A runtime-checked query on the `Any` driver.
+type AnyQuery<'q> = sqlx::query::Query<'q, sqlx::Any, sqlx::any::AnyArguments>;
+
 /// Which database a store talks to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Backend {
@@ -310,28 +313,43 @@ impl Store {
             // Still answer 404 for an unknown mission.
             return self.empty_batch(mission_id).await;
         }
-        let mut tx = self.write.begin().await?;
-        let mut accepted = 0;
-        // Keep statements to a bounded number of parameters (SQLite's default limit is
-        // 32766; PostgreSQL's 65535).
-        for chunk in rows.chunks(500) {
-            let sql = values_sql(
-                "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us) VALUES ",
-                8,
-                chunk.len(),
-                " ON CONFLICT DO NOTHING",
-            );
-            let mut q = sqlx::query(AssertSqlSafe(sql));
-            for r in chunk {
-                q = q
-                    .bind(mission_id.to_string())
+        let received_us = to_us(received_at_s);
+        self.insert_batch(
+            "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us) VALUES ",
+            8,
+            rows,
+            |q, r| {
+                q.bind(mission_id.to_string())
                     .bind(r.obstacle_id.clone())
                     .bind(to_us(r.t_s))
                     .bind(r.lat_deg)
                     .bind(r.lon_deg)
                     .bind(r.alt_msl_m)
                     .bind(r.radius_m)
-                    .bind(to_us(received_at_s));
+                    .bind(received_us)
+            },
+        )
+        .await
+    }
+
+    /// Inserts `rows` in one transaction with `ON CONFLICT DO NOTHING`, `cols` placeholders
+    /// per row bound by `bind`, and counts how many were new.
+    async fn insert_batch<T>(
+        &self,
+        head: &str,
+        cols: usize,
+        rows: &[T],
+        bind: impl for<'q> Fn(AnyQuery<'q>, &T) -> AnyQuery<'q>,
+    ) -> Result<InsertCounts, sqlx::Error> {
+        let mut tx = self.write.begin().await?;
+        let mut accepted = 0;
+        // Keep statements to a bounded number of parameters (SQLite's default limit is
+        // 32766; PostgreSQL's 65535).
+        for chunk in rows.chunks(500) {
+            let sql = values_sql(head, cols, chunk.len(), " ON CONFLICT DO NOTHING");
+            let mut q = sqlx::query(AssertSqlSafe(sql));
+            for r in chunk {
+                q = bind(q, r);
             }
             accepted += q.execute(&mut *tx).await?.rows_affected();
         }
@@ -433,34 +451,23 @@ impl Store {
         if rows.is_empty() {
             return self.empty_batch(mission_id).await;
         }
-        let mut tx = self.write.begin().await?;
-        let mut accepted = 0;
-        for chunk in rows.chunks(500) {
-            let sql = values_sql(
-                "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us) VALUES ",
-                8,
-                chunk.len(),
-                " ON CONFLICT DO NOTHING",
-            );
-            let mut q = sqlx::query(AssertSqlSafe(sql));
-            for r in chunk {
-                q = q
-                    .bind(mission_id.to_string())
+        let received_us = to_us(received_at_s);
+        self.insert_batch(
+            "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us) VALUES ",
+            8,
+            rows,
+            |q, r| {
+                q.bind(mission_id.to_string())
                     .bind(to_us(r.t_s))
                     .bind(r.lat_deg)
                     .bind(r.lon_deg)
                     .bind(r.alt_msl_m)
                     .bind(r.heading_deg)
                     .bind(r.speed_mps)
-                    .bind(to_us(received_at_s));
-            }
-            accepted += q.execute(&mut *tx).await?.rows_affected();
-        }
-        tx.commit().await?;
-        Ok(InsertCounts {
-            accepted,
-            duplicate: rows.len() as u64 - accepted,
-        })
+                    .bind(received_us)
+            },
+        )
+        .await
     }
 
     /// An empty batch stores nothing but still fails like an insert for a missing mission.
