@@ -8,10 +8,21 @@
 //! mass. A NoFly obstacle is an analytic disc growing at the NoFly speed, evaluated at query
 //! time instead of being gridded. Obstacles combine as `1 - prod(1 - p_i)`.
 //!
+//! Multi-resolution in time: uncertainty grows with the horizon, so late slices do not need
+//! fine cells. Slices at most `fine_horizon_s` (default 15 s) after slice 0 use `cell_m`
+//! (default 5 m) cells, slices up to `coarse_horizon_s` (default 40 s) use `cell_m *
+//! coarse_factor` (default 10 m), later ones `cell_m * coarse_factor^2` (default 20 m). Every
+//! slice's grid starts at `min_m` and covers the bounds; each stores its own cell size,
+//! dimensions and offset, and splats with a stencil built for its own cell size (so an
+//! obstacle's mass in a slice is that resolution's stencil area). `resolution(inf, inf, 1)`
+//! gives `cell_m` everywhere.
+//!
 //! Data layout, chosen for the speed targets (incremental update of one obstacle <= 1 ms,
-//! full rebuild of 10 <= 10 ms, >= 20 M queries/s; see the bench for what is met):
-//! - one dense `f32` grid per slice holding `q = prod(1 - p_i)`; a query is one load
-//!   (`risk = 1 - q`, nearest slice and nearest cell, with precomputed reciprocals);
+//! full rebuild of 10 <= 10 ms, >= 20 M queries/s at the default 5 m cells; the bench
+//! `risk_map` measures ~0.75 ms, ~8 ms and 40-55 M/s on one loaded core):
+//! - one dense `f32` grid per slice holding `q = prod(1 - p_i)`; a query is the slice's
+//!   geometry (a small per-slice array of reciprocal cell size, width, height and offset)
+//!   and one load (`risk = 1 - q`, nearest slice and nearest cell);
 //! - per obstacle and slice, runs of consecutive cells with a `u16` particle count per
 //!   cell (`p = count / particles`, exact, so mass is conserved exactly); `1 - p`
 //!   (clamped to at least 1e-6) and its inverse come from tables, so an obstacle's
@@ -28,7 +39,9 @@
 //!
 //! The cost of an update is dominated by the number of cells an obstacle covers over the
 //! horizon (a Random-stage obstacle's cloud grows with time), and in particular by the
-//! cache misses of the read-modify-write of `q`; 10 m cells cost a quarter of 5 m cells.
+//! cache misses of the read-modify-write of `q`; a cell twice as large costs a quarter, which
+//! is what the coarse late slices buy (the bench's scenario covers ~6x fewer cells than with
+//! 5 m cells throughout).
 //!
 //! Threat filtering: an obstacle enters the map only if the intended path (ENU polyline)
 //! passes within `radius + buffer + reach` of its position, where reach is the distance its
@@ -49,13 +62,23 @@ use std::collections::BTreeMap;
 /// Risk-map parameters, with documented defaults.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default))]
 pub struct RiskMapConfig {
     /// South-west corner of the grid, ENU metres. Default `[-1000, -1000]`.
     pub min_m: [f64; 2],
     /// North-east corner of the grid, ENU metres. Default `[1000, 1000]`.
     pub max_m: [f64; 2],
-    /// Cell size, metres. Default 5 (about half the smallest 30 ft sphere radius).
+    /// Cell size of the finest slices, metres. Default 5 (about half the smallest 30 ft
+    /// sphere radius).
     pub cell_m: f64,
+    /// Slices at most this long after slice 0 use `cell_m` cells, seconds. Default 15.
+    pub fine_horizon_s: f64,
+    /// Later slices at most this long after slice 0 use `cell_m * coarse_factor` cells;
+    /// slices beyond it `cell_m * coarse_factor^2`, seconds. Default 40.
+    pub coarse_horizon_s: f64,
+    /// Ratio between the cell sizes of consecutive resolutions (1 = `cell_m` everywhere).
+    /// Default 2: 5 m cells up to 15 s, 10 m up to 40 s, 20 m beyond.
+    pub coarse_factor: u32,
     /// Time between slices, seconds. Default 1.
     pub dt_s: f64,
     /// Horizon, seconds: slices at `0, dt, .., horizon`. Default 60.
@@ -74,6 +97,9 @@ impl Default for RiskMapConfig {
             min_m: [-1000.0, -1000.0],
             max_m: [1000.0, 1000.0],
             cell_m: 5.0,
+            fine_horizon_s: 15.0,
+            coarse_horizon_s: 40.0,
+            coarse_factor: 2,
             dt_s: 1.0,
             horizon_s: 60.0,
             buffer_m: 5.0,
@@ -93,6 +119,20 @@ impl RiskMapConfig {
     /// Sets the cell size.
     pub fn cell_m(mut self, cell_m: f64) -> Self {
         self.cell_m = cell_m;
+        self
+    }
+    /// Sets the resolution schedule: `cell_m` cells up to `fine_horizon_s` after slice 0,
+    /// `cell_m * coarse_factor` up to `coarse_horizon_s`, `cell_m * coarse_factor^2`
+    /// beyond. `resolution(f64::INFINITY, f64::INFINITY, 1)` keeps `cell_m` everywhere.
+    pub fn resolution(
+        mut self,
+        fine_horizon_s: f64,
+        coarse_horizon_s: f64,
+        coarse_factor: u32,
+    ) -> Self {
+        self.fine_horizon_s = fine_horizon_s;
+        self.coarse_horizon_s = coarse_horizon_s;
+        self.coarse_factor = coarse_factor;
         self
     }
     /// Sets the slice spacing and horizon.
@@ -176,6 +216,20 @@ struct Run {
     start: u32,
 }
 
+/// Where and at which resolution a slice is stored.
+#[derive(Debug, Clone, Copy)]
+struct SliceGeom {
+    /// `1 / cell_m`.
+    inv_cell: f64,
+    cell_m: f64,
+    /// Offset of the slice's first cell in `q`.
+    off: usize,
+    nx: usize,
+    ny: usize,
+    /// Resolution level (0 = `cell_m`).
+    level: usize,
+}
+
 #[derive(Debug, Clone)]
 struct Stencil {
     /// `(dy, half width)` rows.
@@ -189,15 +243,20 @@ pub struct RiskMap {
     cfg: RiskMapConfig,
     path: Vec<[f64; 2]>,
     t0_s: f64,
+    /// Finest grid size.
     nx: usize,
     ny: usize,
     n_slices: usize,
-    inv_cell: f64,
+    /// Per slice geometry (small, so a query's extra load stays in L1).
+    geo: Vec<SliceGeom>,
+    /// Geometry of the slice being splatted.
+    cur: SliceGeom,
     inv_dt: f64,
     q: Vec<f32>,
     contrib: BTreeMap<String, Contribution>,
     discs: Vec<Disc>,
-    stencils: Vec<(u64, Stencil)>,
+    /// Keyed by (radius in mm, resolution level).
+    stencils: Vec<((u64, usize), Stencil)>,
     acc: Vec<u32>,
     /// `1 - count / particles` (at least 1e-6) and its inverse, by count.
     omp_table: Vec<f32>,
@@ -211,7 +270,6 @@ pub struct RiskMap {
     /// Touched span per grid row (empty = `(MAX, MIN)`), and the rows touched.
     row_span: Vec<(i32, i32)>,
     rows_touched: Vec<u32>,
-    cur_slice: usize,
     spare: Vec<Contribution>,
     stamps: Vec<(i32, i32, u32)>,
 }
@@ -295,23 +353,63 @@ impl RiskMap {
         if !(cfg.buffer_m.is_finite() && cfg.buffer_m >= 0.0) {
             return Err(RiskMapError::NotPositive("buffer_m"));
         }
-        let nx = ((cfg.max_m[0] - cfg.min_m[0]) / cfg.cell_m).ceil() as u64;
-        let ny = ((cfg.max_m[1] - cfg.min_m[1]) / cfg.cell_m).ceil() as u64;
+        if cfg.fine_horizon_s.is_nan() || cfg.coarse_horizon_s.is_nan() {
+            return Err(RiskMapError::NotPositive(
+                "fine_horizon_s, coarse_horizon_s",
+            ));
+        }
+        if !(1..=64).contains(&cfg.coarse_factor) {
+            return Err(RiskMapError::NotPositive("coarse_factor (1 ..= 64)"));
+        }
         let n_slices = (cfg.horizon_s / cfg.dt_s + 1e-9).floor() as u64 + 1;
-        let total = nx * ny * n_slices;
-        if nx * ny >= 1 << 31 || total >= 1 << 31 {
-            return Err(RiskMapError::TooLarge(total));
+        let dims = |level: u32| {
+            let cell = cfg.cell_m * f64::from(cfg.coarse_factor.pow(level));
+            (
+                cell,
+                ((cfg.max_m[0] - cfg.min_m[0]) / cell).ceil() as u64,
+                ((cfg.max_m[1] - cfg.min_m[1]) / cell).ceil() as u64,
+            )
+        };
+        let (_, nx, ny) = dims(0);
+        if nx * ny >= 1 << 31 {
+            return Err(RiskMapError::TooLarge(nx * ny * n_slices));
+        }
+        let mut geo = Vec::new();
+        let mut total = 0u64;
+        for k in 0..n_slices {
+            let ahead_s = k as f64 * cfg.dt_s - 1e-9;
+            let level = if ahead_s <= cfg.fine_horizon_s {
+                0
+            } else if ahead_s <= cfg.coarse_horizon_s {
+                1
+            } else {
+                2
+            };
+            let (cell_m, lx, ly) = dims(level);
+            geo.push(SliceGeom {
+                inv_cell: 1.0 / cell_m,
+                cell_m,
+                off: total as usize,
+                nx: lx as usize,
+                ny: ly as usize,
+                level: level as usize,
+            });
+            total += lx * ly;
+            if total >= 1 << 31 {
+                return Err(RiskMapError::TooLarge(total));
+            }
         }
         let (nx, ny, n_slices) = (nx as usize, ny as usize, n_slices as usize);
         Ok(Self {
-            inv_cell: 1.0 / cfg.cell_m,
+            cur: geo[0],
+            geo,
             inv_dt: 1.0 / cfg.dt_s,
             path: intended_path.to_vec(),
             t0_s,
             nx,
             ny,
             n_slices,
-            q: vec![1.0; nx * ny * n_slices],
+            q: vec![1.0; total as usize],
             contrib: BTreeMap::new(),
             discs: Vec::new(),
             stencils: Vec::new(),
@@ -328,7 +426,6 @@ impl RiskMap {
             diff: vec![0; (nx + 1) * ny],
             row_span: vec![(i32::MAX, i32::MIN); ny],
             rows_touched: Vec::new(),
-            cur_slice: 0,
             spare: Vec::new(),
             stamps: Vec::new(),
             cfg,
@@ -355,7 +452,7 @@ impl RiskMap {
     pub fn slices(&self) -> usize {
         self.n_slices
     }
-    /// Grid size `(width, height)` in cells.
+    /// Grid size `(width, height)` in cells of the finest slices (`cell_m`).
     pub fn grid_size(&self) -> (usize, usize) {
         (self.nx, self.ny)
     }
@@ -379,6 +476,12 @@ impl RiskMap {
         }
     }
 
+    /// Cell size of slice `k`, metres (`cell_m` times a power of `coarse_factor`, see
+    /// [`RiskMapConfig::resolution`]); the last slice's for `k` beyond the horizon.
+    pub fn slice_cell_m(&self, k: usize) -> f64 {
+        self.geo[k.min(self.n_slices - 1)].cell_m
+    }
+
     fn slice_time(&self, k: usize) -> f64 {
         self.t0_s + k as f64 * self.cfg.dt_s
     }
@@ -397,7 +500,8 @@ impl RiskMap {
             .flat_map(|run| &c.counts[run.start as usize..(run.start + run.len) as usize])
             .map(|&x| u64::from(x))
             .sum();
-        Some(n as f64 / self.cfg.particles as f64 * self.cfg.cell_m * self.cfg.cell_m)
+        let cm = self.geo[k].cell_m;
+        Some(n as f64 / self.cfg.particles as f64 * cm * cm)
     }
 
     /// Number of grid cells (over all slices) obstacle `id` contributes to: the work an
@@ -408,18 +512,26 @@ impl RiskMap {
             .map(|c| c.counts.iter().filter(|&&x| x > 0).count())
     }
 
-    /// Area of the splat stencil of a sphere of `radius_m` (plus the buffer), square metres.
+    /// Area of the splat stencil of a sphere of `radius_m` (plus the buffer) at the finest
+    /// resolution (`cell_m`), square metres.
     pub fn stencil_area_m2(&mut self, radius_m: f64) -> f64 {
-        let i = self.stencil(radius_m + self.cfg.buffer_m);
-        self.stencils[i].1.cells as f64 * self.cfg.cell_m * self.cfg.cell_m
+        self.slice_stencil_area_m2(radius_m, 0)
     }
 
-    fn stencil(&mut self, r_m: f64) -> usize {
-        let key = (r_m * 1000.0).round() as u64;
+    /// Area of the splat stencil of a sphere of `radius_m` (plus the buffer) in slice `k`
+    /// (at that slice's resolution), square metres: an obstacle's mass in every slice.
+    pub fn slice_stencil_area_m2(&mut self, radius_m: f64, k: usize) -> f64 {
+        let g = self.geo[k.min(self.n_slices - 1)];
+        let i = self.stencil(radius_m + self.cfg.buffer_m, g);
+        self.stencils[i].1.cells as f64 * g.cell_m * g.cell_m
+    }
+
+    fn stencil(&mut self, r_m: f64, g: SliceGeom) -> usize {
+        let key = ((r_m * 1000.0).round() as u64, g.level);
         if let Some(i) = self.stencils.iter().position(|(k, _)| *k == key) {
             return i;
         }
-        let rc = r_m / self.cfg.cell_m;
+        let rc = r_m / g.cell_m;
         let n = rc.floor() as i32;
         let mut rows = Vec::new();
         let mut cells = 0;
@@ -457,10 +569,9 @@ impl RiskMap {
     /// Every contribution removed: the cells they touched are set back to exactly 1, which
     /// also wipes the rounding drift of incremental updates.
     fn clear_all(&mut self) {
-        let cells = self.nx * self.ny;
         for c in self.contrib.values() {
-            for k in 0..c.slice_start.len().saturating_sub(1) {
-                let base = k * cells;
+            for k in 0..self.n_slices.min(c.slice_start.len().saturating_sub(1)) {
+                let base = self.geo[k].off;
                 for run in &c.runs[c.slice_start[k] as usize..c.slice_start[k + 1] as usize] {
                     let a = base + run.idx as usize;
                     self.q[a..a + run.len as usize].fill(1.0);
@@ -487,9 +598,8 @@ impl RiskMap {
     }
 
     fn subtract(&mut self, c: &Contribution) {
-        let cells = self.nx * self.ny;
         for k in 0..self.n_slices.min(c.slice_start.len().saturating_sub(1)) {
-            let base = k * cells;
+            let base = self.geo[k].off;
             let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
             for run in &c.runs[r] {
                 let a = base + run.idx as usize;
@@ -553,7 +663,14 @@ impl RiskMap {
     }
 
     fn splat_obstacle(&mut self, o: &ObstacleInput<'_>, r_m: f64, c: &mut Contribution) {
-        let si = self.stencil(r_m);
+        // Stencil per resolution level (at most three).
+        let mut si = [usize::MAX; 3];
+        for k in 0..self.n_slices {
+            let g = self.geo[k];
+            if si[g.level] == usize::MAX {
+                si[g.level] = self.stencil(r_m, g);
+            }
+        }
         let n = self.cfg.particles;
         let mut rng = ChaCha8Rng::seed_from_u64(self.cfg.seed ^ fnv1a(o.id));
         let mut prop = Propagator::new(o.model, n, &mut rng);
@@ -561,7 +678,7 @@ impl RiskMap {
         c.slice_start.push(0);
         for k in 0..self.n_slices {
             let tk = self.slice_time(k);
-            self.cur_slice = k;
+            self.cur = self.geo[k];
             self.begin_slice();
             if tk <= o.model.t_s {
                 let p = o
@@ -577,7 +694,7 @@ impl RiskMap {
                     self.add_particle([prop.x[i], prop.y[i]], 1);
                 }
             }
-            self.finish_slice(si, c);
+            self.finish_slice(si[self.cur.level], c);
         }
     }
 
@@ -594,14 +711,15 @@ impl RiskMap {
     /// Merges a particle into its cell; a particle outside the grid is stamped on its own
     /// (its stencil may still reach the grid).
     fn add_particle(&mut self, p: [f64; 2], w: u32) {
-        let fx = ((p[0] - self.cfg.min_m[0]) * self.inv_cell).floor();
-        let fy = ((p[1] - self.cfg.min_m[1]) * self.inv_cell).floor();
-        if fx < 0.0 || fy < 0.0 || fx >= self.nx as f64 || fy >= self.ny as f64 {
+        let g = &self.cur;
+        let fx = ((p[0] - self.cfg.min_m[0]) * g.inv_cell).floor();
+        let fy = ((p[1] - self.cfg.min_m[1]) * g.inv_cell).floor();
+        if fx < 0.0 || fy < 0.0 || fx >= g.nx as f64 || fy >= g.ny as f64 {
             self.stamps
                 .push((fx.clamp(-1e8, 1e8) as i32, fy.clamp(-1e8, 1e8) as i32, w));
             return;
         }
-        let j = fy as usize * self.nx + fx as usize;
+        let j = fy as usize * g.nx + fx as usize;
         if self.mark[j] != self.stamp_gen {
             self.mark[j] = self.stamp_gen;
             self.acc[j] = w;
@@ -615,12 +733,13 @@ impl RiskMap {
     /// (contiguous row additions), then keeps the non-zero cells as the slice's entries.
     #[inline(never)]
     fn finish_slice(&mut self, si: usize, c: &mut Contribution) {
-        let nx = self.nx as i32;
-        let ny = self.ny as i32;
+        let g = self.cur;
+        let nx = g.nx as i32;
+        let ny = g.ny as i32;
         for &j in &self.centres {
             let j = j as usize;
             self.stamps
-                .push(((j % self.nx) as i32, (j / self.nx) as i32, self.acc[j]));
+                .push(((j % g.nx) as i32, (j / g.nx) as i32, self.acc[j]));
         }
         let stencil = &self.stencils[si].1;
         let rc = stencil
@@ -657,7 +776,7 @@ impl RiskMap {
             // prefix sum along the row's touched span then gives the splat, and the scan
             // zeroes the scratch behind it. Two operations per stamp and row, whatever the
             // stencil's width, and no clearing of untouched cells.
-            let stride = self.nx + 1;
+            let stride = g.nx + 1;
             self.rows_touched.clear();
             for &(cx, cy, w) in &self.stamps {
                 for &(dy, hw) in &stencil.rows {
@@ -683,14 +802,14 @@ impl RiskMap {
             }
             self.rows_touched.sort_unstable();
             let (mut ix0, mut iy0, mut ix1, mut iy1) = (usize::MAX, usize::MAX, 0, 0);
-            let qbase = self.cur_slice * self.nx * self.ny;
+            let qbase = g.off;
             let mut max_count = 0u32;
             for &gy in &self.rows_touched {
                 let gy = gy as usize;
                 let (lo, hi) = std::mem::replace(&mut self.row_span[gy], (i32::MAX, i32::MIN));
                 let (lo, hi) = (lo as usize, hi as usize);
                 let row = &mut self.diff[gy * stride + lo..=gy * stride + hi + 1];
-                let gbase = gy * self.nx + lo;
+                let gbase = gy * g.nx + lo;
                 let (last, body) = row.split_last_mut().expect("span is not empty");
                 *last = 0;
                 let mut acc = 0i32;
@@ -749,7 +868,7 @@ impl RiskMap {
             }
             max_p = (max_count as f32 / self.cfg.particles as f32).min(1.0);
             if ix0 != usize::MAX {
-                let cm = self.cfg.cell_m;
+                let cm = g.cell_m;
                 bb = [
                     self.cfg.min_m[0] + ix0 as f64 * cm,
                     self.cfg.min_m[1] + iy0 as f64 * cm,
@@ -779,21 +898,21 @@ impl RiskMap {
     /// The slice nearest `t_s`, for rendering.
     pub fn slice(&self, t_s: f64) -> SliceView {
         let k = self.slice_index(t_s);
-        let cells = self.nx * self.ny;
-        let mut data: Vec<f32> = self.q[k * cells..(k + 1) * cells]
+        let g = self.geo[k];
+        let mut data: Vec<f32> = self.q[g.off..g.off + g.nx * g.ny]
             .iter()
             .map(|&q| (1.0 - q).clamp(0.0, 1.0))
             .collect();
         if !self.discs.is_empty() {
-            let cm = self.cfg.cell_m;
-            for iy in 0..self.ny {
-                for ix in 0..self.nx {
+            let cm = g.cell_m;
+            for iy in 0..g.ny {
+                for ix in 0..g.nx {
                     let p = [
                         self.cfg.min_m[0] + (ix as f64 + 0.5) * cm,
                         self.cfg.min_m[1] + (iy as f64 + 0.5) * cm,
                     ];
                     if self.disc_risk(p, k) > 0.0 {
-                        data[iy * self.nx + ix] = 1.0;
+                        data[iy * g.nx + ix] = 1.0;
                     }
                 }
             }
@@ -801,9 +920,9 @@ impl RiskMap {
         SliceView {
             t_s: self.slice_time(k),
             origin_m: self.cfg.min_m,
-            cell_m: self.cfg.cell_m,
-            width: self.nx,
-            height: self.ny,
+            cell_m: g.cell_m,
+            width: g.nx,
+            height: g.ny,
             data,
         }
     }
@@ -813,13 +932,14 @@ impl RiskField for RiskMap {
     #[inline]
     fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
         let k = self.slice_index(t_s);
-        let fx = (p_m[0] - self.cfg.min_m[0]) * self.inv_cell;
-        let fy = (p_m[1] - self.cfg.min_m[1]) * self.inv_cell;
+        let g = &self.geo[k];
+        let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
+        let fy = (p_m[1] - self.cfg.min_m[1]) * g.inv_cell;
         let mut r = 0.0;
         if fx >= 0.0 && fy >= 0.0 {
             let (ix, iy) = (fx as usize, fy as usize);
-            if ix < self.nx && iy < self.ny {
-                r = 1.0 - f64::from(self.q[(k * self.ny + iy) * self.nx + ix]);
+            if ix < g.nx && iy < g.ny {
+                r = 1.0 - f64::from(self.q[g.off + iy * g.nx + ix]);
             }
         }
         if !self.discs.is_empty() && r < 1.0 {

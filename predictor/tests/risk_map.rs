@@ -31,21 +31,25 @@ fn a_stationary_obstacle_map_stays_a_disc_of_radius_plus_buffer() {
     assert_eq!(p.obstacle("s").unwrap().stage, Stage::Random);
     let c = cfg();
     let map = p.risk_map(&c, &[], 3.0);
-    // Radius + buffer = 14.144 m; cells are 5 m, so a cell centre can be up to 3.54 m from
-    // the obstacle's cell centre: inside 14.144 - 7.1 everything is certain, beyond
-    // 14.144 + 7.1 nothing is.
+    // Radius + buffer = 14.144 m; cells are 5 m (10 m after 15 s, 20 m after 40 s: the
+    // default resolution schedule), so a cell centre can be up to cell * sqrt(2) / 2 (3.54
+    // m for 5 m cells) from the obstacle's cell centre: inside 14.144 - cell * sqrt(2)
+    // (7.07 m for 5 m cells) everything is certain, beyond 14.144 + cell * sqrt(2) nothing
+    // is.
     for k in 0..map.slices() {
         let t = 3.0 + k as f64;
         let view = map.slice(t);
+        let tol = view.cell_m * std::f64::consts::SQRT_2 + 1e-9;
+        assert_eq!(view.cell_m, if k <= 15 { 5.0 } else { 10.0 });
         for iy in 0..view.height {
             for ix in 0..view.width {
                 let x = view.origin_m[0] + (ix as f64 + 0.5) * view.cell_m;
                 let y = view.origin_m[1] + (iy as f64 + 0.5) * view.cell_m;
                 let d = (x - 12.0).hypot(y + 7.0);
                 let r = view.data[iy * view.width + ix];
-                if d < 14.144 - 7.1 {
+                if d < 14.144 - tol {
                     assert!(r > 0.999, "slice {k} cell at {d:.1} m: {r}");
-                } else if d > 14.144 + 7.1 {
+                } else if d > 14.144 + tol {
                     assert_eq!(r, 0.0, "slice {k} cell at {d:.1} m");
                 }
                 assert_eq!(r, map.risk([x, y], t) as f32);
@@ -210,4 +214,61 @@ fn re_anchoring_the_cached_map_equals_a_fresh_build() {
         let t = 62.0 + k as f64;
         assert_eq!(cached.slice(t), fresh.slice(t), "slice {k}");
     }
+}
+
+#[test]
+fn late_slices_use_coarser_cells_and_the_schedule_can_be_turned_off() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    feed(&mut p, "a", Behaviour::Uniform { w: 0.2 }, 9, [0.0, 0.0]);
+    // Default schedule over 60 s: 5 m cells up to 15 s ahead, 10 m up to 40 s, 20 m beyond;
+    // the 800 m square is 160, 80 and 40 cells wide.
+    let c = cfg().time(1.0, 60.0);
+    let map = p.build_risk_map(&c, &[], 70.0).unwrap();
+    assert_eq!(map.grid_size(), (160, 160));
+    for (k, cell_m, width) in [
+        (0, 5.0, 160),
+        (15, 5.0, 160),
+        (16, 10.0, 80),
+        (40, 10.0, 80),
+    ]
+    .into_iter()
+    .chain([(41, 20.0, 40), (60, 20.0, 40)])
+    {
+        assert_eq!(map.slice_cell_m(k), cell_m, "slice {k}");
+        let view = map.slice(70.0 + k as f64);
+        assert_eq!(
+            (view.cell_m, view.width, view.height),
+            (cell_m, width, width)
+        );
+        assert_eq!(view.origin_m, [-400.0, -400.0]);
+        // The view and the point queries read the same cells.
+        for (i, &r) in view.data.iter().enumerate().step_by(7) {
+            let x = -400.0 + ((i % width) as f64 + 0.5) * cell_m;
+            let y = -400.0 + ((i / width) as f64 + 0.5) * cell_m;
+            assert_eq!(r, map.risk([x, y], 70.0 + k as f64) as f32);
+        }
+    }
+    assert!(map.slice(100.0).data.iter().any(|&r| r > 0.0));
+    // One resolution throughout: every slice at cell_m.
+    let flat = c.resolution(f64::INFINITY, f64::INFINITY, 1);
+    let map = p.build_risk_map(&flat, &[], 70.0).unwrap();
+    for k in 0..map.slices() {
+        assert_eq!(map.slice_cell_m(k), 5.0);
+        assert_eq!(map.slice(70.0 + k as f64).width, 160);
+    }
+}
+
+#[test]
+fn an_invalid_resolution_schedule_is_an_error() {
+    use predictor::{RiskMap, RiskMapError};
+    let bad = cfg().resolution(15.0, 40.0, 0);
+    assert!(matches!(
+        RiskMap::new(bad, &[], 0.0),
+        Err(RiskMapError::NotPositive(_))
+    ));
+    let bad = cfg().resolution(f64::NAN, 40.0, 2);
+    assert!(matches!(
+        RiskMap::new(bad, &[], 0.0),
+        Err(RiskMapError::NotPositive(_))
+    ));
 }
