@@ -3,7 +3,8 @@
 //!
 //! Scenario: 10 moving obstacles (3 straight, 3 uniform random turners, 2 biased, 2
 //! zigzag; 8-18 m/s; radius 30-150 ft) with 120 s of 10 Hz history each, automatic
-//! staging, a 1.5 km x 1.5 km grid of 5 m cells, dt 1 s, horizon 60 s, 256 particles.
+//! staging, a 1.5 km x 1.5 km grid of 5 m cells (10 m after 15 s, 20 m after 40 s: the
+//! default resolution schedule), dt 1 s, horizon 60 s, 256 particles.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -18,8 +19,10 @@ use std::time::{Duration, Instant};
 
 const N: usize = 10;
 
-/// The default map (5 m cells, 256 particles) unless `JINK_BENCH_CELL_M` /
-/// `JINK_BENCH_PARTICLES` say otherwise (to measure the trade-off).
+/// The default map (5 m cells, 256 particles, the default resolution schedule) unless
+/// `JINK_BENCH_CELL_M` / `JINK_BENCH_PARTICLES` / `JINK_BENCH_SCHEDULE` say otherwise (to
+/// measure the trade-off). The schedule is `fine_horizon_s,coarse_horizon_s,coarse_factor`,
+/// e.g. `inf,inf,1` for `cell_m` in every slice.
 fn map_cfg() -> RiskMapConfig {
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
     let mut c = RiskMapConfig::default().bounds([-750.0, -750.0], [750.0, 750.0]);
@@ -29,6 +32,13 @@ fn map_cfg() -> RiskMapConfig {
     if let Some(n) = env("JINK_BENCH_PARTICLES") {
         c = c.particles(n as usize);
     }
+    if let Ok(s) = std::env::var("JINK_BENCH_SCHEDULE") {
+        let v: Vec<f64> = s.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+        if let [fine_s, coarse_s, factor] = v[..] {
+            c = c.resolution(fine_s, coarse_s, factor as u32);
+        }
+    }
+    eprintln!("risk map: {c:?}");
     c
 }
 

@@ -257,11 +257,11 @@ pub struct RiskMap {
     discs: Vec<Disc>,
     /// Keyed by (radius in mm, resolution level).
     stencils: Vec<((u64, usize), Stencil)>,
-    acc: Vec<u32>,
     /// `1 - count / particles` (at least 1e-6) and its inverse, by count.
     omp_table: Vec<f32>,
     inv_table: Vec<f32>,
-    mark: Vec<u32>,
+    /// Per finest-grid cell `(generation, merged weight)`: one cache line per particle.
+    mark: Vec<(u32, u32)>,
     stamp_gen: u32,
     centres: Vec<u32>,
     /// Row-difference scratch of particle counts, `(nx + 1) * ny`, all zero between
@@ -413,14 +413,13 @@ impl RiskMap {
             contrib: BTreeMap::new(),
             discs: Vec::new(),
             stencils: Vec::new(),
-            acc: vec![0; nx * ny],
             omp_table: (0..=cfg.particles)
                 .map(|c| (1.0 - c as f32 / cfg.particles as f32).max(1e-6))
                 .collect(),
             inv_table: (0..=cfg.particles)
                 .map(|c| 1.0 / (1.0 - c as f32 / cfg.particles as f32).max(1e-6))
                 .collect(),
-            mark: vec![0; nx * ny],
+            mark: vec![(0, 0); nx * ny],
             stamp_gen: 0,
             centres: Vec::new(),
             diff: vec![0; (nx + 1) * ny],
@@ -701,7 +700,7 @@ impl RiskMap {
     fn begin_slice(&mut self) {
         self.stamp_gen = self.stamp_gen.wrapping_add(1);
         if self.stamp_gen == 0 {
-            self.mark.fill(0);
+            self.mark.fill((0, 0));
             self.stamp_gen = 1;
         }
         self.centres.clear();
@@ -712,20 +711,22 @@ impl RiskMap {
     /// (its stencil may still reach the grid).
     fn add_particle(&mut self, p: [f64; 2], w: u32) {
         let g = &self.cur;
-        let fx = ((p[0] - self.cfg.min_m[0]) * g.inv_cell).floor();
-        let fy = ((p[1] - self.cfg.min_m[1]) * g.inv_cell).floor();
-        if fx < 0.0 || fy < 0.0 || fx >= g.nx as f64 || fy >= g.ny as f64 {
+        let fx = (p[0] - self.cfg.min_m[0]) * g.inv_cell;
+        let fy = (p[1] - self.cfg.min_m[1]) * g.inv_cell;
+        // Inside the grid the truncating casts are the floor (no libm call on this path).
+        if fx >= 0.0 && fy >= 0.0 && fx < g.nx as f64 && fy < g.ny as f64 {
+            let j = fy as usize * g.nx + fx as usize;
+            let m = &mut self.mark[j];
+            if m.0 != self.stamp_gen {
+                *m = (self.stamp_gen, w);
+                self.centres.push(j as u32);
+            } else {
+                m.1 += w;
+            }
+        } else {
+            let (fx, fy) = (fx.floor(), fy.floor());
             self.stamps
                 .push((fx.clamp(-1e8, 1e8) as i32, fy.clamp(-1e8, 1e8) as i32, w));
-            return;
-        }
-        let j = fy as usize * g.nx + fx as usize;
-        if self.mark[j] != self.stamp_gen {
-            self.mark[j] = self.stamp_gen;
-            self.acc[j] = w;
-            self.centres.push(j as u32);
-        } else {
-            self.acc[j] += w;
         }
     }
 
@@ -739,7 +740,7 @@ impl RiskMap {
         for &j in &self.centres {
             let j = j as usize;
             self.stamps
-                .push(((j % g.nx) as i32, (j / g.nx) as i32, self.acc[j]));
+                .push(((j % g.nx) as i32, (j / g.nx) as i32, self.mark[j].1));
         }
         let stencil = &self.stencils[si].1;
         let rc = stencil
