@@ -19,7 +19,9 @@
 //!
 //! Data layout, chosen for the speed targets (incremental update of one obstacle <= 1 ms,
 //! full rebuild of 10 <= 10 ms, >= 20 M queries/s at the default 5 m cells; the bench
-//! `risk_map` measures ~0.75 ms, ~8 ms and 40-55 M/s on one loaded core):
+//! `risk_map`, six runs on a shared 2-core machine under load ~3: medians 0.70-1.17 ms
+//! (mostly 0.7-1.0), 7.7-12.8 ms (mostly 8-9) and 21-60 M/s (mostly 37-58), against
+//! 2.5-3.0 ms, 24-34 ms and 16-56 M/s with 5 m cells in every slice):
 //! - one dense `f32` grid per slice holding `q = prod(1 - p_i)`; a query is the slice's
 //!   geometry (a small per-slice array of reciprocal cell size, width, height and offset)
 //!   and one load (`risk = 1 - q`, nearest slice and nearest cell);
