@@ -12,7 +12,7 @@ pub mod extract;
 pub mod geodesy;
 pub mod interop;
 pub mod metrics;
-pub mod predict;
 pub mod mission;
+pub mod predict;
 pub mod store;
 pub mod time;
