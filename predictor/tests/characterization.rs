@@ -134,33 +134,3 @@ fn a_forced_stage_is_used_and_nothing_is_recorded() {
     assert_eq!(s.stage, Stage::Memory);
     assert!(s.stage_history.is_empty());
 }
-
-#[test]
-#[ignore = "diagnostic printout"]
-fn print_histories() {
-    for (name, b) in [
-        ("biased", Behaviour::Biased { w: w() }),
-        ("zigzag", Behaviour::Zigzag { w: w() }),
-        ("uniform", Behaviour::Uniform { w: w() }),
-    ] {
-        for seed in 0..10 {
-            let p = run(b, seed, 600.0);
-            let s = p.obstacle("0").unwrap();
-            let h: Vec<String> = s
-                .stage_history
-                .iter()
-                .map(|c| {
-                    format!(
-                        "{:.0}:{}->{} {:.3} p={:?}",
-                        c.t_s,
-                        c.from.as_str(),
-                        c.to.as_str(),
-                        c.statistic,
-                        c.p_value.map(|p| (p * 1e4).round() / 1e4)
-                    )
-                })
-                .collect();
-            println!("{name} {seed}: {}", h.join(" | "));
-        }
-    }
-}
