@@ -7,7 +7,7 @@
 pub type P2 = planner::geometry::Point;
 
 // The vector algebra is the planner's own: one definition for both crates.
-pub use planner::geometry::{add, cross, dist, dot, norm, scale, sub};
+pub use planner::geometry::{add, cross, dist, dot, norm, scale, segments_intersect, sub};
 
 /// Unit vector of `a` (zero stays zero).
 #[inline]
@@ -62,27 +62,6 @@ pub fn point_in_polygon(p: P2, poly: &[P2]) -> bool {
         j = i;
     }
     inside
-}
-
-/// Whether the segments `a-b` and `c-d` properly cross or touch.
-pub fn segments_intersect(a: P2, b: P2, c: P2, d: P2) -> bool {
-    let d1 = cross(sub(b, a), sub(c, a));
-    let d2 = cross(sub(b, a), sub(d, a));
-    let d3 = cross(sub(d, c), sub(a, c));
-    let d4 = cross(sub(d, c), sub(b, c));
-    if ((d1 > 0.0 && d2 < 0.0) || (d1 < 0.0 && d2 > 0.0))
-        && ((d3 > 0.0 && d4 < 0.0) || (d3 < 0.0 && d4 > 0.0))
-    {
-        return true;
-    }
-    let on = |p: P2, q: P2, r: P2, c: f64| {
-        c == 0.0
-            && r[0] >= p[0].min(q[0])
-            && r[0] <= p[0].max(q[0])
-            && r[1] >= p[1].min(q[1])
-            && r[1] <= p[1].max(q[1])
-    };
-    on(a, b, c, d1) || on(a, b, d, d2) || on(c, d, a, d3) || on(c, d, b, d4)
 }
 
 /// Whether the whole segment `a-b` lies inside the polygon (both ends inside, no edge crossed).

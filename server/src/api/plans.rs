@@ -154,22 +154,8 @@ pub enum StartSource {
     Stack,
 }
 
-/// An obstacle observation used by a plan.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct ObservationUsed {
-    /// Obstacle id.
-    pub obstacle_id: String,
-    /// Time, Unix seconds.
-    pub t: f64,
-    /// Latitude, degrees.
-    pub lat: f64,
-    /// Longitude, degrees.
-    pub lon: f64,
-    /// Altitude, metres MSL.
-    pub alt_msl_m: f64,
-    /// Sphere radius, metres.
-    pub radius_m: f64,
-}
+/// An obstacle observation used by a plan (the stored observation's wire form).
+pub type ObservationUsed = super::telemetry::ObservationOut;
 
 /// Everything a plan depends on besides the mission: stored with it for replay.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

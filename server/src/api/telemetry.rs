@@ -42,7 +42,7 @@ pub struct ObservationBatch {
 }
 
 /// A stored observation.
-#[derive(Debug, Serialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct ObservationOut {
     /// The obstacle's id.
     pub obstacle_id: String,

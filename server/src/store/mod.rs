@@ -378,18 +378,7 @@ impl Store {
         .bind(after_s.map_or(i64::MIN, to_us))
         .fetch_all(&self.read)
         .await?;
-        rows.iter()
-            .map(|r| {
-                Ok(ObservationRow {
-                    obstacle_id: r.try_get(0)?,
-                    t_s: from_us(r.try_get(1)?),
-                    lat_deg: r.try_get(2)?,
-                    lon_deg: r.try_get(3)?,
-                    alt_msl_m: r.try_get(4)?,
-                    radius_m: r.try_get(5)?,
-                })
-            })
-            .collect()
+        rows.iter().map(observation_row).collect()
     }
 
     /// A mission's observations with `after_us < t <= until_us` that had been received by
@@ -413,18 +402,7 @@ impl Store {
         .bind(received_until_us)
         .fetch_all(&self.read)
         .await?;
-        rows.iter()
-            .map(|r| {
-                Ok(ObservationRow {
-                    obstacle_id: r.try_get(0)?,
-                    t_s: from_us(r.try_get(1)?),
-                    lat_deg: r.try_get(2)?,
-                    lon_deg: r.try_get(3)?,
-                    alt_msl_m: r.try_get(4)?,
-                    radius_m: r.try_get(5)?,
-                })
-            })
-            .collect()
+        rows.iter().map(observation_row).collect()
     }
 
     /// Stores aircraft telemetry, all or none; a sample at an already stored time is a
@@ -547,6 +525,18 @@ fn missing_mission<T>(r: Result<T, sqlx::Error>) -> Result<Option<T>, sqlx::Erro
 
 /// Tables whose rows belong to a mission (deleted with it). Later migrations add theirs.
 pub const CHILD_TABLES: &[&str] = &["obstacle_observations", "aircraft_telemetry", "plans"];
+
+/// Decodes `SELECT obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m`.
+fn observation_row(r: &sqlx::any::AnyRow) -> Result<ObservationRow, sqlx::Error> {
+    Ok(ObservationRow {
+        obstacle_id: r.try_get(0)?,
+        t_s: from_us(r.try_get(1)?),
+        lat_deg: r.try_get(2)?,
+        lon_deg: r.try_get(3)?,
+        alt_msl_m: r.try_get(4)?,
+        radius_m: r.try_get(5)?,
+    })
+}
 
 fn decode_mission(body: &str) -> Result<Mission, sqlx::Error> {
     serde_json::from_str(body).map_err(|e| sqlx::Error::Decode(Box::new(e)))
