@@ -56,7 +56,7 @@ fn main() {
         let client = reqwest::Client::builder().pool_max_idle_per_host(concurrency).build().unwrap();
         let mission = std::fs::read_to_string(concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../../shared/fixtures/interop/mission_2021_webster_field.json"
+            "/../tests/fixtures/interop/mission_2021_webster_field.json"
         ))
         .unwrap();
         let r = client

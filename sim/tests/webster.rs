@@ -13,11 +13,8 @@ use sim::strategy::StrategyKind;
 fn webster() -> Mission {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/fixtures/interop/mission_2021_webster_field.json"
+        "/../tests/fixtures/interop/mission_2021_webster_field.json"
     ))
-    .or_else(|_| {
-        std::fs::read_to_string("/work/shared/fixtures/interop/mission_2021_webster_field.json")
-    })
     .expect("fixture");
     let v: Value = serde_json::from_str(&text).unwrap();
     let zone = &v["flyZones"][0];

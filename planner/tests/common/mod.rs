@@ -94,7 +94,7 @@ pub const FT: f64 = 0.3048;
 pub fn webster() -> planner::Mission {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/fixtures/interop/mission_2021_webster_field.json"
+        "/../tests/fixtures/interop/mission_2021_webster_field.json"
     );
     let text = std::fs::read_to_string(path).expect("Webster fixture");
     webster_from_json(&text)

@@ -265,7 +265,7 @@ mod tests {
     #[test]
     fn the_webster_field_fixture_loads_into_the_simulators_enu_mission() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../shared/fixtures/interop/mission_2021_webster_field.json");
+            .join("../tests/fixtures/interop/mission_2021_webster_field.json");
         let m = load_mission(&path).unwrap();
         assert_eq!(m.waypoints_m.len(), 14);
         assert_eq!(m.cylinders.len(), 6);

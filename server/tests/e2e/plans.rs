@@ -247,7 +247,7 @@ async fn insert_waypoint_answers_the_seed_004_example(app: App) {
 #[test]
 fn jink_plan_prints_the_same_plan_offline_for_the_same_seed() {
     let mission = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/fixtures/interop/mission_2021_webster_field.json");
+        .join("../tests/fixtures/interop/mission_2021_webster_field.json");
     let dir = tempfile::tempdir().unwrap();
     let obs = dir.path().join("obs.json");
     let list: Vec<Value> = (0..=10)
