@@ -1,4 +1,5 @@
 //! Wire timestamps: RFC 3339 strings or Unix seconds (numbers), into `f64` Unix seconds.
+//! RFC 3339 is parsed and formatted by `jiff`; no input, however malformed, panics.
 
 use serde::{Deserialize, Deserializer, Serialize};
 use utoipa::ToSchema;
@@ -36,42 +37,32 @@ impl<'de> Deserialize<'de> for WireTime {
     }
 }
 
-/// Parses an RFC 3339 timestamp into Unix seconds.
+/// Parses an RFC 3339 timestamp into Unix seconds (by `jiff`, never panics on any input).
+///
+/// Accepted: `2018-06-14T15:00:00Z`, a numeric offset (`+02:00`), fractional seconds down to
+/// nanoseconds, `t`/`z` in lower case. A date-time with no offset at all
+/// (`2018-06-14T15:00:00`, also with a space for `T`) is read as UTC, as jink always has.
+/// Times before 1970 are refused (the wire's Unix seconds are non-negative).
 ///
 /// # Errors
 /// A message naming the bad input.
 pub fn parse_rfc3339(s: &str) -> Result<f64, String> {
-    // humantime handles the `Z` form; normalise numeric offsets ourselves.
     let s = s.trim();
-    let (base, offset_s) = split_offset(s)?;
-    let t = humantime::parse_rfc3339_weak(base)
-        .map_err(|e| format!("'{s}' is not an RFC 3339 timestamp or Unix seconds: {e}"))?;
-    let d = t
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_err(|_| format!("'{s}' is before 1970"))?;
-    Ok(d.as_secs_f64() - offset_s)
-}
-
-fn split_offset(s: &str) -> Result<(&str, f64), String> {
-    if let Some(b) = s.strip_suffix('Z').or_else(|| s.strip_suffix('z')) {
-        return Ok((b, 0.0));
+    let ts = match s.parse::<jiff::Timestamp>() {
+        Ok(ts) => ts,
+        Err(with_offset) => s
+            .parse::<jiff::civil::DateTime>()
+            .ok()
+            .and_then(|dt| dt.to_zoned(jiff::tz::TimeZone::UTC).ok())
+            .map(|z| z.timestamp())
+            .ok_or_else(|| {
+                format!("'{s}' is not an RFC 3339 timestamp or Unix seconds: {with_offset}")
+            })?,
+    };
+    if ts < jiff::Timestamp::UNIX_EPOCH {
+        return Err(format!("'{s}' is before 1970"));
     }
-    // A trailing +HH:MM / -HH:MM after the time part.
-    if s.len() > 6 {
-        let (head, tail) = s.split_at(s.len() - 6);
-        let bytes = tail.as_bytes();
-        if (bytes[0] == b'+' || bytes[0] == b'-') && bytes[3] == b':' && head.contains('T') {
-            let h: f64 = tail[1..3]
-                .parse()
-                .map_err(|_| format!("bad offset in '{s}'"))?;
-            let m: f64 = tail[4..6]
-                .parse()
-                .map_err(|_| format!("bad offset in '{s}'"))?;
-            let sign = if bytes[0] == b'+' { 1.0 } else { -1.0 };
-            return Ok((head, sign * (h * 3600.0 + m * 60.0)));
-        }
-    }
-    Ok((s, 0.0))
+    Ok(ts.as_second() as f64 + f64::from(ts.subsec_nanosecond()) * 1e-9)
 }
 
 /// Now, in Unix seconds.
@@ -92,10 +83,11 @@ pub fn from_us(t_us: i64) -> f64 {
     t_us as f64 / 1e6
 }
 
-/// Formats Unix seconds as RFC 3339 (UTC, microseconds).
+/// Formats Unix seconds as RFC 3339 (UTC, microseconds), e.g. `2018-06-14T15:00:00.000000Z`.
+/// Negative times format as the epoch; times past the year 9999 as `jiff`'s last instant.
 pub fn format_rfc3339(t_s: f64) -> String {
-    let t = std::time::UNIX_EPOCH + std::time::Duration::from_micros(to_us(t_s.max(0.0)) as u64);
-    humantime::format_rfc3339_micros(t).to_string()
+    let t = jiff::Timestamp::from_microsecond(to_us(t_s.max(0.0))).unwrap_or(jiff::Timestamp::MAX);
+    t.strftime("%Y-%m-%dT%H:%M:%S%.6fZ").to_string()
 }
 
 #[cfg(test)]
@@ -110,6 +102,23 @@ mod tests {
         assert_eq!(z, 1_528_988_400.0);
         assert_eq!(plus, z);
         assert!((frac - z - 0.25).abs() < 1e-6);
+        assert_eq!(parse_rfc3339("2018-06-14T15:00:00").unwrap(), z);
+        assert_eq!(parse_rfc3339("2018-06-14 15:00:00").unwrap(), z);
+        assert_eq!(parse_rfc3339("2018-06-14t15:00:00z").unwrap(), z);
+        assert_eq!(parse_rfc3339("2018-06-14T10:30:00-04:30").unwrap(), z);
+        assert!(parse_rfc3339("1969-12-31T23:59:59Z").is_err());
+        assert!(parse_rfc3339("2018-13-14T15:00:00Z").is_err());
+        assert!(parse_rfc3339("2018-06-14T15:00:00+26:00").is_err());
+    }
+
+    /// The query string of issue 11 that made the hand-written parser panic (`split_at`
+    /// inside a multi-byte character): now a plain error.
+    #[test]
+    fn multi_byte_input_is_an_error_not_a_panic() {
+        let raw = "\u{d57c}\u{c1257}";
+        assert!(parse_rfc3339(raw).is_err());
+        assert!(serde_json::from_value::<WireTime>(serde_json::json!(raw)).is_err());
+        assert!(parse_rfc3339("2018-06-14T15:00:00\u{e9}00:00").is_err());
     }
 
     #[test]
@@ -131,5 +140,39 @@ mod tests {
             format_rfc3339(1_528_988_400.0),
             "2018-06-14T15:00:00.000000Z"
         );
+        assert_eq!(format_rfc3339(-3.0), "1970-01-01T00:00:00.000000Z");
+        assert!(format_rfc3339(1e300).starts_with("9999-12-"));
+    }
+
+    proptest::proptest! {
+        /// Any string at all: parsing answers Ok or Err, never panics.
+        #[test]
+        fn arbitrary_strings_never_panic(s in "\\PC*", raw in proptest::collection::vec(proptest::num::u8::ANY, 0..40)) {
+            let _ = parse_rfc3339(&s);
+            let _ = serde_json::from_value::<WireTime>(serde_json::json!(s));
+            let lossy = String::from_utf8_lossy(&raw);
+            let _ = parse_rfc3339(&lossy);
+            let _ = serde_json::from_slice::<WireTime>(&raw);
+        }
+
+        /// Strings shaped like timestamps, with random digits and offsets: no panic, and an
+        /// accepted one means the instant its fields say.
+        #[test]
+        fn timestamp_shaped_strings_never_panic(
+            s in "[0-9]{4}-[0-9]{2}-[0-9]{2}[Tt ][0-9]{2}:[0-9]{2}:[0-9]{2}(\\.[0-9]{1,12})?([Zz]|[+-][0-9]{2}:[0-9]{2})?"
+        ) {
+            if let Ok(t) = parse_rfc3339(&s) {
+                proptest::prop_assert!(t >= 0.0 && t.is_finite());
+            }
+        }
+
+        /// Formatting then parsing gives back the time to the microsecond, over 1970..2100 (where
+        /// an `f64` of Unix seconds still resolves microseconds).
+        #[test]
+        fn format_then_parse_round_trips(us in 0i64..4_102_444_800_000_000) {
+            let t = from_us(us);
+            let back = parse_rfc3339(&format_rfc3339(t)).unwrap();
+            proptest::prop_assert_eq!(to_us(back), to_us(t));
+        }
     }
 }

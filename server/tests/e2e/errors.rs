@@ -3,7 +3,7 @@
 use serde_json::json;
 
 use crate::both_stores;
-use crate::support::{App, Db, fixture_text, problem};
+use crate::support::{App, Db, fixture, fixture_text, problem};
 
 both_stores!(
     malformed_bodies_and_wrong_routes_get_problem_documents,
@@ -65,6 +65,31 @@ async fn malformed_bodies_and_wrong_routes_get_problem_documents(app: App) {
         400,
     )
     .await;
+
+    // Issue 11: a `time=` of multi-byte characters used to panic the RFC 3339 parser (the
+    // connection dropped with no answer); now a 400 naming the parameter, nothing stored.
+    let id = app.create_mission(&fixture("mission_2018.json")).await;
+    for bad in [
+        "%ED%95%BC%F3%81%89%97",
+        "2018-06-14T15:00:00%C3%A900:00",
+        "9999-99-99",
+    ] {
+        let p = problem(
+            app.post_raw(
+                &format!("/api/v1/missions/{id}/obstacles?time={bad}"),
+                "application/json",
+                fixture_text("obstacles_2018.json"),
+            )
+            .await,
+            400,
+        )
+        .await;
+        assert!(p["detail"].as_str().unwrap().contains("time"), "{p}");
+    }
+    let stored = app
+        .get_json(&format!("/api/v1/missions/{id}/observations"))
+        .await;
+    assert_eq!(stored, json!([]));
 }
 
 async fn unknown_missions_are_404_everywhere(app: App) {
