@@ -9,25 +9,7 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use utoipa::ToSchema;
 
-/// One invalid field of a request.
-#[derive(Debug, Clone, PartialEq, Serialize, ToSchema)]
-pub struct FieldError {
-    /// RFC 6901 JSON pointer to the field in the request body (or `#/query/<name>` for a
-    /// query parameter), e.g. `/waypoints/3/lat`.
-    pub pointer: String,
-    /// What is wrong with it, for a person.
-    pub detail: String,
-}
-
-impl FieldError {
-    /// A field error at `pointer`.
-    pub fn new(pointer: impl Into<String>, detail: impl Into<String>) -> Self {
-        Self {
-            pointer: pointer.into(),
-            detail: detail.into(),
-        }
-    }
-}
+pub use wire::error::{FieldError, escape_pointer, serde_path_to_pointer};
 
 /// Every way a request can fail.
 #[derive(Debug, thiserror::Error)]
@@ -191,25 +173,13 @@ impl From<tokio::task::JoinError> for ApiError {
     }
 }
 
-/// Turns a `serde_path_to_error` path (`waypoints[2].lat`) into a JSON pointer
-/// (`/waypoints/2/lat`).
-pub fn serde_path_to_pointer(path: &serde_path_to_error::Path) -> String {
-    use serde_path_to_error::Segment;
-    let mut out = String::new();
-    for seg in path.iter() {
-        match seg {
-            Segment::Seq { index } => out.push_str(&format!("/{index}")),
-            Segment::Map { key } => out.push_str(&format!("/{}", escape_pointer(key))),
-            Segment::Enum { variant } => out.push_str(&format!("/{}", escape_pointer(variant))),
-            Segment::Unknown => out.push_str("/?"),
+impl From<wire::WireError> for ApiError {
+    fn from(e: wire::WireError) -> Self {
+        match e {
+            wire::WireError::Validation(errs) => Self::Validation(errs),
+            wire::WireError::BadRequest { detail, pointer } => Self::BadRequest { detail, pointer },
         }
     }
-    out
-}
-
-/// Escapes one JSON pointer reference token (RFC 6901: `~` -> `~0`, `/` -> `~1`).
-pub fn escape_pointer(token: &str) -> String {
-    token.replace('~', "~0").replace('/', "~1")
 }
 
 #[cfg(test)]
@@ -234,10 +204,5 @@ mod tests {
         let p = ApiError::Internal("database: disk I/O error at /secret/path".into()).problem();
         assert_eq!(p.status, 500);
         assert!(!p.detail.contains("secret"));
-    }
-
-    #[test]
-    fn pointer_tokens_are_escaped() {
-        assert_eq!(escape_pointer("a/b~c"), "a~1b~0c");
     }
 }

@@ -95,19 +95,9 @@ pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
     })
 }
 
-/// Deserializes an already parsed JSON value into `T`, naming the offending field.
+/// Deserializes an already parsed JSON value into `T`, naming the offending field (400).
 pub fn from_value<T: DeserializeOwned>(value: serde_json::Value) -> Result<T, ApiError> {
-    serde_path_to_error::deserialize(value).map_err(|e| {
-        let pointer = serde_path_to_pointer(e.path());
-        let inner = e.into_inner();
-        ApiError::BadRequest {
-            detail: format!(
-                "{}: {inner}",
-                if pointer.is_empty() { "/" } else { &pointer }
-            ),
-            pointer: Some(pointer),
-        }
-    })
+    Ok(wire::from_value(value)?)
 }
 
 /// Insists on a JSON content type.

@@ -1,18 +1,17 @@
 //! jink's service: HTTP API, wire formats, geodesy, storage and the CLI.
 //!
 //! Layout: `api/` (one module per resource: router, handlers, wire types), `store/`
-//! (SQL behind one type), `interop` and `mission` (formats and validation), `geodesy`
-//! (WGS84 <-> local ENU), `cli/` (subcommands).
+//! (SQL behind one type), `cli/` (subcommands). The wire formats, their validation, wire
+//! timestamps and geodesy live in the `wire` crate (re-exported here as `interop`,
+//! `mission`, `time`, `geodesy`).
 
 pub mod api;
 pub mod app;
 pub mod cli;
 pub mod error;
 pub mod extract;
-pub mod geodesy;
-pub mod interop;
 pub mod metrics;
-pub mod mission;
 pub mod predict;
 pub mod store;
-pub mod time;
+
+pub use wire::{geodesy, interop, mission, time};

@@ -1,13 +1,11 @@
 //! A real mission (Webster Field 2021, the interop fixture) with generated moving spheres.
 //!
-//! `sim` must not depend on the server, so this test reads the fixture's camelCase JSON
-//! itself and converts it with a local spherical tangent-plane approximation (metre-level
-//! agreement with WGS84 over a 1 km field, enough for a simulation test).
+//! The fixture is read and converted to ENU metres by the `wire` crate (WGS84, origin at
+//! the lost-comms position), the same reader the server and `jink simulate` use.
 
-use serde_json::Value;
-use sim::mission::{Cylinder, Mission};
+use sim::mission::Mission;
 use sim::run::{RunConfig, run};
-use sim::scenario::{FT, Family, with_moving_spheres};
+use sim::scenario::{Family, with_moving_spheres};
 use sim::strategy::StrategyKind;
 
 fn webster() -> Mission {
@@ -16,54 +14,13 @@ fn webster() -> Mission {
         "/../tests/fixtures/interop/mission_2021_webster_field.json"
     ))
     .expect("fixture");
-    let v: Value = serde_json::from_str(&text).unwrap();
-    let zone = &v["flyZones"][0];
-    let lat0 = zone["boundaryPoints"][0]["latitude"].as_f64().unwrap();
-    let lon0 = zone["boundaryPoints"][0]["longitude"].as_f64().unwrap();
-    let r = 6_371_000.0_f64;
-    let enu = |p: &Value| {
-        let (lat, lon) = (
-            p["latitude"].as_f64().unwrap(),
-            p["longitude"].as_f64().unwrap(),
-        );
-        [
-            (lon - lon0).to_radians() * r * lat0.to_radians().cos(),
-            (lat - lat0).to_radians() * r,
-        ]
-    };
-    let waypoints_m: Vec<[f64; 3]> = v["waypoints"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|w| {
-            let p = enu(w);
-            [p[0], p[1], w["altitude"].as_f64().unwrap() * FT]
-        })
-        .collect();
-    let first = waypoints_m[0];
-    Mission {
-        fly_zone_m: zone["boundaryPoints"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(enu)
-            .collect(),
-        alt_min_m: zone["altitudeMin"].as_f64().unwrap() * FT,
-        alt_max_m: zone["altitudeMax"].as_f64().unwrap() * FT,
-        // start 200 m south of the first waypoint, at its altitude
-        start_m: [first[0], first[1] - 200.0, first[2]],
-        waypoints_m,
-        cylinders: v["stationaryObstacles"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|c| Cylinder {
-                center_m: enu(c),
-                radius_m: c["radius"].as_f64().unwrap() * FT,
-                top_m: c["height"].as_f64().unwrap() * FT,
-            })
-            .collect(),
-    }
+    let pm = wire::domain::read_mission_text(&text, "webster")
+        .expect("a valid mission")
+        .to_planner();
+    let first = &pm.waypoints[0];
+    // start 200 m south of the first waypoint, at its altitude
+    let start_m = [first.p_m[0], first.p_m[1] - 200.0, first.alt_m];
+    Mission::from_planner(&pm, start_m)
 }
 
 #[test]

@@ -86,77 +86,17 @@ pub fn sampled_max(f: &dyn RiskField, a: Point, b: Point, t0: f64, t1: f64) -> f
         .fold(0.0, f64::max)
 }
 
-/// Feet to metres.
-pub const FT: f64 = 0.3048;
-
 /// The 2021 Webster Field interop mission in ENU metres (origin: the lost-comms position,
-/// altitude 0 MSL), converted with `map_3d` (WGS84 -> ECEF -> ENU, angles in radians).
+/// altitude 0 MSL), read and converted by the `wire` crate (WGS84 -> ECEF -> ENU).
 pub fn webster() -> planner::Mission {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../tests/fixtures/interop/mission_2021_webster_field.json"
     );
     let text = std::fs::read_to_string(path).expect("Webster fixture");
-    webster_from_json(&text)
-}
-
-/// Parses a 2019+ protobuf-JSON interop mission into ENU metres.
-pub fn webster_from_json(text: &str) -> planner::Mission {
-    let v: serde_json::Value = serde_json::from_str(text).unwrap();
-    let lat0 = v["lostCommsPos"]["latitude"].as_f64().unwrap();
-    let lon0 = v["lostCommsPos"]["longitude"].as_f64().unwrap();
-    let enu = |lat: f64, lon: f64| -> Point {
-        let (e, n, _u) = map_3d::geodetic2enu(
-            lat.to_radians(),
-            lon.to_radians(),
-            0.0,
-            lat0.to_radians(),
-            lon0.to_radians(),
-            0.0,
-            map_3d::Ellipsoid::WGS84,
-        );
-        [e, n]
-    };
-    let f = |x: &serde_json::Value| x.as_f64().unwrap();
-    let fly_zones = v["flyZones"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|z| planner::FlyZone {
-            boundary_m: z["boundaryPoints"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .map(|p| enu(f(&p["latitude"]), f(&p["longitude"])))
-                .collect(),
-            alt_min_m: f(&z["altitudeMin"]) * FT,
-            alt_max_m: f(&z["altitudeMax"]) * FT,
-        })
-        .collect();
-    let waypoints = v["waypoints"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| planner::Waypoint {
-            p_m: enu(f(&p["latitude"]), f(&p["longitude"])),
-            alt_m: f(&p["altitude"]) * FT,
-        })
-        .collect();
-    let cylinders = v["stationaryObstacles"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|c| planner::Cylinder {
-            center_m: enu(f(&c["latitude"]), f(&c["longitude"])),
-            radius_m: f(&c["radius"]) * FT,
-            top_m: f(&c["height"]) * FT,
-        })
-        .collect();
-    planner::Mission {
-        fly_zones,
-        cylinders,
-        waypoints,
-    }
+    wire::domain::read_mission_text(&text, "webster")
+        .expect("the Webster fixture is a valid mission")
+        .to_planner()
 }
 
 /// `n` synthetic moving obstacles over the mission's bounding box, from a seed.

@@ -83,18 +83,13 @@ pub struct InsertResponse {
 }
 
 fn check(errs: &mut Vec<FieldError>, ptr: &str, p: LatLon) {
-    if !(p.lat.is_finite() && (-90.0..=90.0).contains(&p.lat)) {
-        errs.push(FieldError::new(
-            format!("{ptr}/lat"),
-            "latitude must be in [-90, 90]",
-        ));
-    }
-    if !(p.lon.is_finite() && (-180.0..=180.0).contains(&p.lon)) {
-        errs.push(FieldError::new(
-            format!("{ptr}/lon"),
-            "longitude must be in [-180, 180]",
-        ));
-    }
+    wire::coords::check_lat_lon(
+        errs,
+        &format!("{ptr}/lat"),
+        &format!("{ptr}/lon"),
+        p.lat,
+        p.lon,
+    );
 }
 
 /// Insert a waypoint to avoid an obstacle (seed 004).

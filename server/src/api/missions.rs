@@ -5,14 +5,13 @@ use axum::extract::{Path, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::Deserialize;
-use utoipa::{IntoParams, ToSchema};
+use utoipa::IntoParams;
 use utoipa_axum::{router::OpenApiRouter, routes};
 
 use crate::app::AppState;
 use crate::error::{ApiError, Problem};
 use crate::extract::{ApiQuery, Body, parse_json, require_json};
-use crate::interop;
-use crate::mission::{self, Mission, MissionInput, SourceFormat};
+use crate::mission::{Mission, MissionInput, SourceFormat};
 use crate::time::{format_rfc3339, now_s};
 
 /// `?format=` of a mission upload.
@@ -21,31 +20,7 @@ use crate::time::{format_rfc3339, now_s};
 pub struct UploadParams {
     /// Forces the body's format instead of detecting it: `native`, `interop-2018` or
     /// `interop-2019`.
-    pub format: Option<FormatParam>,
-}
-
-/// A mission format name.
-#[derive(Debug, Clone, Copy, Deserialize, ToSchema)]
-pub enum FormatParam {
-    /// jink's own JSON.
-    #[serde(rename = "native")]
-    Native,
-    /// Interop server 2017/2018 JSON.
-    #[serde(rename = "interop-2018")]
-    Interop2018,
-    /// Interop server 2019+ protobuf-JSON.
-    #[serde(rename = "interop-2019")]
-    Interop2019,
-}
-
-impl From<FormatParam> for SourceFormat {
-    fn from(f: FormatParam) -> Self {
-        match f {
-            FormatParam::Native => Self::Native,
-            FormatParam::Interop2018 => Self::Interop2018,
-            FormatParam::Interop2019 => Self::Interop2019,
-        }
-    }
+    pub format: Option<SourceFormat>,
 }
 
 /// Upload a mission.
@@ -74,35 +49,19 @@ async fn create_mission(
     require_json(&headers)?;
     let value: serde_json::Value = parse_json(&body)?;
     let is_list = value.is_array();
-    let format = params.format.map_or_else(
-        || interop::detect_mission_format(&value),
-        SourceFormat::from,
-    );
-    let snake = format == SourceFormat::Interop2019 && interop::uses_snake_case(&value);
-    let parsed = interop::parse_missions(value, format)?;
-    let now = now_s();
-    let mut missions = Vec::with_capacity(parsed.len());
-    let mut errors = Vec::new();
-    for (input, names) in parsed {
-        let names = if snake {
-            interop::snake_names(names)
-        } else {
-            names
-        };
-        match mission::validate(input, &names) {
-            Ok((content, home)) => missions.push(Mission {
-                id: new_mission_id(),
-                source_format: format,
-                created_at: format_rfc3339(now),
-                home,
-                content,
-            }),
-            Err(e) => errors.extend(e),
-        }
-    }
-    if !errors.is_empty() {
-        return Err(ApiError::Validation(errors));
-    }
+    let read = wire::domain::read_missions(value, params.format)?;
+    let (format, now) = (read.format, now_s());
+    let missions: Vec<Mission> = read
+        .missions
+        .into_iter()
+        .map(|(content, home)| Mission {
+            id: new_mission_id(),
+            source_format: format,
+            created_at: format_rfc3339(now),
+            home,
+            content,
+        })
+        .collect();
     state.store.insert_missions(&missions, now).await?;
     tracing::info!(
         n = missions.len(),

@@ -339,42 +339,6 @@ fn kind_out(k: ItemKind) -> KindOut {
     }
 }
 
-/// The mission in the planner's ENU terms.
-pub fn planner_mission(m: &Mission) -> planner::Mission {
-    let f = m.frame();
-    planner::Mission {
-        fly_zones: m
-            .content
-            .fly_zones
-            .iter()
-            .map(|z| planner::FlyZone {
-                boundary_m: z.boundary.iter().map(|p| f.to_enu(p.lat, p.lon)).collect(),
-                alt_min_m: z.alt_min_msl_m,
-                alt_max_m: z.alt_max_msl_m,
-            })
-            .collect(),
-        cylinders: m
-            .content
-            .stationary_obstacles
-            .iter()
-            .map(|c| planner::Cylinder {
-                center_m: f.to_enu(c.lat, c.lon),
-                radius_m: c.radius_m,
-                top_m: c.top_msl_m,
-            })
-            .collect(),
-        waypoints: m
-            .content
-            .waypoints
-            .iter()
-            .map(|w| planner::Waypoint {
-                p_m: f.to_enu(w.lat, w.lon),
-                alt_m: w.alt_msl_m,
-            })
-            .collect(),
-    }
-}
-
 /// The mission's own waypoints as a wire stack.
 pub fn mission_stack_out(m: &Mission) -> Vec<PlanWaypoint> {
     m.content
@@ -413,7 +377,7 @@ pub fn compute(mission: &Mission, inputs: &PlanInputs) -> Result<Computed, ApiEr
         .deadline_ms
         .map(|ms| started + std::time::Duration::from_millis(ms));
     let frame = mission.frame();
-    let pm = planner_mission(mission);
+    let pm = mission.to_planner();
     // Stack in ENU: mission items take the mission's own coordinates (no round trip).
     let stack: Vec<StackItem> = inputs
         .stack

@@ -94,18 +94,8 @@ fn check_position(
     lat_key: &str,
     lon_key: &str,
 ) {
-    if !lat.is_finite() || !(-90.0..=90.0).contains(&lat) {
-        errs.push(FieldError::new(
-            format!("{at}/{lat_key}"),
-            format!("latitude {lat} is not in [-90, 90]"),
-        ));
-    }
-    if !lon.is_finite() || !(-180.0..=180.0).contains(&lon) {
-        errs.push(FieldError::new(
-            format!("{at}/{lon_key}"),
-            format!("longitude {lon} is not in [-180, 180]"),
-        ));
-    }
+    let (lat_ptr, lon_ptr) = (format!("{at}/{lat_key}"), format!("{at}/{lon_key}"));
+    wire::coords::check_lat_lon(errs, &lat_ptr, &lon_ptr, lat, lon);
 }
 
 /// Post moving-obstacle observations.

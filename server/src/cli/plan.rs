@@ -16,8 +16,7 @@ use serde::Deserialize;
 use crate::api::plans::{
     ObservationUsed, PlanInputs, StrategyIn, compute, new_seed, plan_out, stack_start,
 };
-use crate::interop;
-use crate::mission::{self, Mission};
+use crate::mission::Mission;
 
 /// Flags of `jink plan`.
 #[derive(Debug, Args)]
@@ -74,34 +73,12 @@ pub fn run(args: PlanArgs) -> ExitCode {
         Ok(t) => t,
         Err(e) => return fail(format!("{}: {e}", args.mission.display())),
     };
-    let value: serde_json::Value = match serde_json::from_str(&text) {
-        Ok(v) => v,
+    let m = match wire::domain::read_mission_text(&text, "offline") {
+        Ok(m) => Mission {
+            created_at: crate::time::format_rfc3339(0.0),
+            ..m
+        },
         Err(e) => return fail(format!("{}: {e}", args.mission.display())),
-    };
-    let format = interop::detect_mission_format(&value);
-    let parsed = match interop::parse_missions(value, format) {
-        Ok(p) => p,
-        Err(e) => return fail(format!("{}: {e}", args.mission.display())),
-    };
-    let Some((input, names)) = parsed.into_iter().next() else {
-        return fail("no mission in the file");
-    };
-    let (content, home) = match mission::validate(input, &names) {
-        Ok(v) => v,
-        Err(errs) => {
-            let list: Vec<String> = errs
-                .iter()
-                .map(|e| format!("{}: {}", e.pointer, e.detail))
-                .collect();
-            return fail(format!("invalid mission: {}", list.join("; ")));
-        }
-    };
-    let m = Mission {
-        id: "offline".into(),
-        source_format: format,
-        created_at: crate::time::format_rfc3339(0.0),
-        home,
-        content,
     };
     let observations: Vec<ObservationUsed> = match &args.obstacles {
         None => Vec::new(),

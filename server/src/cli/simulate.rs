@@ -17,9 +17,6 @@ use sim::scenario::{Family, Scenario, generate, with_moving_spheres};
 use sim::strategy::StrategyKind;
 use sim::suite::{SuiteConfig, run_suite_on};
 
-use crate::interop::{detect_mission_format, parse_missions};
-use crate::mission::{Home, Mission};
-
 /// Flags of `jink simulate`.
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
@@ -79,35 +76,10 @@ pub struct SimulateArgs {
 pub fn load_mission(path: &Path) -> Result<sim::mission::Mission, String> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let v: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| format!("{}: not JSON: {e}", path.display()))?;
-    let format = detect_mission_format(&v);
-    let (input, _) = parse_missions(v, format)
-        .map_err(|e| format!("{}: {e}", path.display()))?
-        .into_iter()
-        .next()
-        .ok_or_else(|| format!("{}: no mission", path.display()))?;
-    let first = input
-        .fly_zones
-        .first()
-        .and_then(|z| z.boundary.first())
-        .ok_or_else(|| format!("{}: the mission has no fly zone", path.display()))?;
-    let home = input.home.unwrap_or(Home {
-        lat: first.lat,
-        lon: first.lon,
-        alt_msl_m: None,
-    });
-    if input.waypoints.is_empty() {
-        return Err(format!("{}: the mission has no waypoints", path.display()));
-    }
-    let m = Mission {
-        id: "simulate".into(),
-        source_format: format,
-        created_at: String::new(),
-        home,
-        content: input,
-    };
-    let pm = crate::api::plans::planner_mission(&m);
+    let m = wire::domain::read_mission_text(&text, "simulate")
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    let home = m.home;
+    let pm = m.to_planner();
     let start = m.frame().to_enu(home.lat, home.lon);
     let alt = pm.waypoints[0].alt_m;
     Ok(sim::mission::Mission::from_planner(

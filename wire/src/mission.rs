@@ -6,26 +6,31 @@
 //! speeds. The interop adapters (`crate::interop`) convert feet and knots on the way in.
 
 use serde::{Deserialize, Serialize};
-use utoipa::ToSchema;
 
 use crate::error::FieldError;
 use crate::geodesy::LocalFrame;
 
 /// A position on the earth.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct LatLon {
     /// Latitude, degrees, in [-90, 90].
+    #[cfg_attr(feature = "openapi", schema(minimum = -90.0, maximum = 90.0))]
     pub lat: f64,
     /// Longitude, degrees, in [-180, 180].
+    #[cfg_attr(feature = "openapi", schema(minimum = -180.0, maximum = 180.0))]
     pub lon: f64,
 }
 
 /// A position with an optional altitude (the home position).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Home {
     /// Latitude, degrees.
+    #[cfg_attr(feature = "openapi", schema(minimum = -90.0, maximum = 90.0))]
     pub lat: f64,
     /// Longitude, degrees.
+    #[cfg_attr(feature = "openapi", schema(minimum = -180.0, maximum = 180.0))]
     pub lon: f64,
     /// Ground altitude at home, metres MSL, when known.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -33,7 +38,8 @@ pub struct Home {
 }
 
 /// A fly zone: a polygon the aircraft must stay inside, with an altitude band.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct FlyZone {
     /// The boundary, in order, not closed (at least 3 points, not self-intersecting).
     pub boundary: Vec<LatLon>,
@@ -44,25 +50,31 @@ pub struct FlyZone {
 }
 
 /// A mission waypoint, flown in order.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Waypoint {
     /// Latitude, degrees.
+    #[cfg_attr(feature = "openapi", schema(minimum = -90.0, maximum = 90.0))]
     pub lat: f64,
     /// Longitude, degrees.
+    #[cfg_attr(feature = "openapi", schema(minimum = -180.0, maximum = 180.0))]
     pub lon: f64,
     /// Altitude, metres MSL.
     pub alt_msl_m: f64,
 }
 
 /// A stationary obstacle: a cylinder from the ground up to `top_msl_m`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct StationaryObstacle {
     /// The obstacle's id (its index in the mission when not given).
     #[serde(default)]
     pub id: String,
     /// Centre latitude, degrees.
+    #[cfg_attr(feature = "openapi", schema(minimum = -90.0, maximum = 90.0))]
     pub lat: f64,
     /// Centre longitude, degrees.
+    #[cfg_attr(feature = "openapi", schema(minimum = -180.0, maximum = 180.0))]
     pub lon: f64,
     /// Radius, metres (> 0).
     pub radius_m: f64,
@@ -71,7 +83,8 @@ pub struct StationaryObstacle {
 }
 
 /// What the mission says of a moving obstacle before any telemetry (interop 2018 lists).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MovingObstacleInfo {
     /// The obstacle id telemetry will use (its index in the list).
     pub id: String,
@@ -83,7 +96,8 @@ pub struct MovingObstacleInfo {
 }
 
 /// The format a mission was uploaded in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub enum SourceFormat {
     /// jink's own JSON.
     #[serde(rename = "native")]
@@ -108,7 +122,8 @@ impl SourceFormat {
 }
 
 /// A mission as uploaded in native form (also what the interop adapters produce).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MissionInput {
     /// A name for people.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -137,7 +152,8 @@ pub struct MissionInput {
 }
 
 /// A stored mission, as every GET returns it.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Mission {
     /// The mission id.
     pub id: String,
@@ -250,18 +266,8 @@ pub const BOUNDARY_TOLERANCE_M: f64 = 0.5;
 pub const ALTITUDE_TOLERANCE_M: f64 = 1e-6;
 
 fn check_lat_lon(errs: &mut Vec<FieldError>, at: &str, n: &FieldNames, lat: f64, lon: f64) {
-    if !lat.is_finite() || !(-90.0..=90.0).contains(&lat) {
-        errs.push(FieldError::new(
-            format!("{at}/{}", n.lat),
-            format!("latitude {lat} is not in [-90, 90]"),
-        ));
-    }
-    if !lon.is_finite() || !(-180.0..=180.0).contains(&lon) {
-        errs.push(FieldError::new(
-            format!("{at}/{}", n.lon),
-            format!("longitude {lon} is not in [-180, 180]"),
-        ));
-    }
+    let (lat_ptr, lon_ptr) = (format!("{at}/{}", n.lat), format!("{at}/{}", n.lon));
+    crate::coords::check_lat_lon(errs, &lat_ptr, &lon_ptr, lat, lon);
 }
 
 fn finite(errs: &mut Vec<FieldError>, at: String, what: &str, v: f64) -> bool {

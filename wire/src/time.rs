@@ -2,12 +2,15 @@
 //! RFC 3339 is parsed and formatted by `jiff`; no input, however malformed, panics.
 
 use serde::{Deserialize, Deserializer, Serialize};
-use utoipa::ToSchema;
 
 /// A timestamp as the wire carries it: an RFC 3339 string or Unix seconds.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, ToSchema)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(transparent)]
-#[schema(value_type = serde_json::Value, example = "2026-06-14T15:04:05.25Z")]
+#[cfg_attr(
+    feature = "openapi",
+    schema(value_type = serde_json::Value, example = "2026-06-14T15:04:05.25Z")
+)]
 pub struct WireTime(pub f64);
 
 impl<'de> Deserialize<'de> for WireTime {

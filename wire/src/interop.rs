@@ -9,8 +9,7 @@
 use serde::Deserialize;
 use serde_json::Value;
 
-use crate::error::ApiError;
-use crate::extract::from_value;
+use crate::error::{WireError, from_value};
 use crate::mission::{
     FieldNames, FlyZone, Home, LatLon, MissionInput, MovingObstacleInfo, SourceFormat,
     StationaryObstacle, Waypoint,
@@ -72,11 +71,11 @@ pub fn detect_mission_format(v: &Value) -> SourceFormat {
 pub fn parse_missions(
     v: Value,
     format: SourceFormat,
-) -> Result<Vec<(MissionInput, FieldNames)>, ApiError> {
+) -> Result<Vec<(MissionInput, FieldNames)>, WireError> {
     match v {
         Value::Array(items) => {
             if items.is_empty() {
-                return Err(ApiError::field("", "the list of missions is empty"));
+                return Err(WireError::field("", "the list of missions is empty"));
             }
             let mut out = Vec::with_capacity(items.len());
             for (i, item) in items.into_iter().enumerate() {
@@ -87,16 +86,16 @@ pub fn parse_missions(
             Ok(out)
         }
         Value::Object(_) => Ok(vec![parse_one(v, format)?]),
-        _ => Err(ApiError::BadRequest {
+        _ => Err(WireError::BadRequest {
             detail: "a mission must be a JSON object (or a list of them)".into(),
             pointer: Some(String::new()),
         }),
     }
 }
 
-fn prefix_error(e: ApiError, i: usize) -> ApiError {
+fn prefix_error(e: WireError, i: usize) -> WireError {
     match e {
-        ApiError::BadRequest { detail, pointer } => ApiError::BadRequest {
+        WireError::BadRequest { detail, pointer } => WireError::BadRequest {
             detail: format!("/{i}{detail}"),
             pointer: pointer.map(|p| format!("/{i}{p}")),
         },
@@ -104,7 +103,7 @@ fn prefix_error(e: ApiError, i: usize) -> ApiError {
     }
 }
 
-fn parse_one(v: Value, format: SourceFormat) -> Result<(MissionInput, FieldNames), ApiError> {
+fn parse_one(v: Value, format: SourceFormat) -> Result<(MissionInput, FieldNames), WireError> {
     match format {
         SourceFormat::Native => {
             let m: MissionInput = from_value(v)?;
@@ -495,12 +494,7 @@ mod tests {
     use super::*;
 
     fn fixture(name: &str) -> Value {
-        let path = format!(
-            "{}/../tests/fixtures/interop/{name}",
-            env!("CARGO_MANIFEST_DIR")
-        );
-        let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
-        serde_json::from_str(&text).unwrap()
+        serde_json::from_str(&crate::fixture_text(name)).unwrap()
     }
 
     #[test]
