@@ -12,6 +12,7 @@ pub mod avoid;
 pub mod health;
 pub mod missions;
 pub mod operator;
+pub mod plan_record;
 pub mod plans;
 pub mod reactive;
 pub mod risk;

@@ -25,6 +25,7 @@ use planner::export::{GeoItem, GeoPoint, PlanFileOptions, qgc_plan, qgc_wpl};
 use planner::{ItemKind, PlanOutcome, PlanParams, PlanRequest, StackItem, Strategy};
 use predictor::{NoRisk, Observation, Predictor, PredictorConfig, RiskField, RiskMapConfig, Stage};
 
+use super::plan_record::{PlanRecord, stored_plan_out};
 use crate::app::AppState;
 use crate::error::{ApiError, Problem};
 use crate::extract::{ApiJson, ApiQuery};
@@ -623,8 +624,7 @@ async fn create_plan(
             .get_plan_by_revision(&id, base_revision)
             .await?
             .ok_or_else(|| ApiError::field("/base_revision", "no such revision"))?;
-        let out: PlanOut =
-            serde_json::from_str(&row.body).map_err(|e| ApiError::Internal(e.to_string()))?;
+        let out = stored_plan_out(&row)?;
         (out.waypoints, out.current_index)
     };
     let stack_len = if stack.is_empty() {
@@ -720,7 +720,7 @@ async fn create_plan(
             ..inputs.clone()
         })
         .map_err(|e| ApiError::Internal(e.to_string()))?,
-        body: serde_json::to_string(&out).map_err(|e| ApiError::Internal(e.to_string()))?,
+        body: PlanRecord::from_out(&out).to_json()?,
     };
     match state.store.insert_plan(&row).await {
         Ok(()) => {}
@@ -810,16 +810,10 @@ async fn get_plan(
         .await?
         .ok_or_else(|| ApiError::not_found("plan", plan_id))?;
     let fmt = q.format.unwrap_or(PlanFormat::Json);
+    let out = stored_plan_out(&row)?;
     if matches!(fmt, PlanFormat::Json) {
-        let mut resp = row.body.into_response();
-        resp.headers_mut().insert(
-            header::CONTENT_TYPE,
-            HeaderValue::from_static("application/json"),
-        );
-        return Ok(resp);
+        return Ok(axum::Json(out).into_response());
     }
-    let out: PlanOut =
-        serde_json::from_str(&row.body).map_err(|e| ApiError::Internal(e.to_string()))?;
     let home = GeoItem {
         lat_deg: mission.home.lat,
         lon_deg: mission.home.lon,
@@ -921,8 +915,7 @@ async fn replay_plan(
         .ok_or_else(|| ApiError::not_found("plan", plan_id.clone()))?;
     let mut inputs: PlanInputs =
         serde_json::from_str(&row.inputs).map_err(|e| ApiError::Internal(e.to_string()))?;
-    let stored: PlanOut =
-        serde_json::from_str(&row.body).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let stored = stored_plan_out(&row)?;
     if let Some(w) = inputs.observation_window {
         inputs.observations = w.fetch(&state.store, &id).await?;
     }

@@ -1,5 +1,5 @@
 //! Stored plans: one row per revision of a mission's stack, with the inputs and seed that
-//! replay it and the answer as returned.
+//! replay it and the answer (its storage record, not the API response).
 
 use sqlx::Row;
 
@@ -21,7 +21,7 @@ pub struct PlanRow {
     pub seed: u64,
     /// The inputs, JSON.
     pub inputs: String,
-    /// The answer, JSON.
+    /// The answer: a plan record (`api::plan_record`), JSON; older rows hold the answer itself.
     pub body: String,
 }
 

@@ -1,0 +1,362 @@
+//! The stored form of a plan's answer (the `plans.body` column), separate from the API's
+//! [`PlanOut`]: the API may rename or add fields without touching stored rows, and the
+//! store never parses an API response back.
+//!
+//! # Contract
+//! - A record is a JSON object with `"record": 1` (the shape's version); what the row's
+//!   columns already hold (ids, revision, seed, creation time) is not repeated.
+//! - Rows written before records existed hold the serialized `PlanOut` (no `record` key);
+//!   they are still read, as they are ([`stored_plan_out`]).
+//! - The diff's `insert` is not stored: it is the stack from `first_changed` on.
+//! - Units: degrees, metres MSL, metres, seconds (Unix), milliseconds for `compute_ms`.
+
+use serde::{Deserialize, Serialize};
+
+use super::plans::{
+    DiffOut, DynamicRisk, DynamicSource, KindOut, PlanOut, PlanWaypoint, StartOut, StartSource,
+};
+use crate::error::ApiError;
+use crate::store::plans::PlanRow;
+use crate::time::format_rfc3339;
+
+/// The version of the record shape written now.
+pub const RECORD_VERSION: u32 = 1;
+
+/// A stored plan answer, version 1.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanRecord {
+    /// The shape's version ([`RECORD_VERSION`]).
+    pub record: u32,
+    /// The revision it revised (0 = the mission's waypoints).
+    pub base_revision: i64,
+    /// The planner's outcome name.
+    pub outcome: String,
+    /// Index to fly toward.
+    pub current_index: usize,
+    /// The whole stack.
+    pub stack: Vec<StoredItem>,
+    /// First stack index that differs from the base; none when nothing changed.
+    pub first_changed: Option<usize>,
+    /// Base items deleted from `first_changed` on.
+    pub removed: usize,
+    /// Peak risk of the plan and of the base stack.
+    pub risk: f64,
+    /// Peak risk of the base stack.
+    pub base_risk: f64,
+    /// Metres flown at risk 1.
+    pub exposure_m: f64,
+    /// Remaining route length, metres.
+    pub length_m: f64,
+    /// Avoid items in the remaining route.
+    pub added: usize,
+    /// Stack indices of too-sharp turns.
+    pub turn_violations: Vec<usize>,
+    /// Planning time, milliseconds.
+    pub compute_ms: f64,
+    /// Whether a risk map was used, and for how many moving obstacles.
+    pub risk_map_used: bool,
+    /// Moving obstacles observed in the window.
+    pub moving_obstacles: usize,
+    /// The start.
+    pub start: StoredStart,
+}
+
+/// One stored stack item.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StoredItem {
+    /// Latitude, degrees.
+    pub lat_deg: f64,
+    /// Longitude, degrees.
+    pub lon_deg: f64,
+    /// Altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// `M` mission, `A` avoid, `S` search.
+    pub kind: char,
+    /// Index into the mission's waypoints (mission items).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mission_index: Option<usize>,
+}
+
+/// The stored start.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StoredStart {
+    /// Whether it came from aircraft telemetry (else from the stack).
+    pub from_telemetry: bool,
+    /// Unix seconds.
+    pub t_s: f64,
+    /// Latitude, degrees.
+    pub lat_deg: f64,
+    /// Longitude, degrees.
+    pub lon_deg: f64,
+    /// Altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// Heading, degrees true.
+    pub heading_deg: f64,
+    /// Ground speed, m/s.
+    pub speed_mps: f64,
+}
+
+impl PlanRecord {
+    /// The record of an answer.
+    pub fn from_out(o: &PlanOut) -> Self {
+        let s = &o.start;
+        Self {
+            record: RECORD_VERSION,
+            base_revision: o.base_revision,
+            outcome: o.outcome.clone(),
+            current_index: o.current_index,
+            stack: o.waypoints.iter().map(stored_item).collect(),
+            first_changed: o.diff.first_changed,
+            removed: o.diff.remove,
+            risk: o.risk,
+            base_risk: o.base_risk,
+            exposure_m: o.exposure_m,
+            length_m: o.length_m,
+            added: o.added,
+            turn_violations: o.turn_violations.clone(),
+            compute_ms: o.compute_ms,
+            risk_map_used: o.dynamic_risk.source == DynamicSource::RiskMap,
+            moving_obstacles: o.dynamic_risk.obstacles,
+            start: StoredStart {
+                from_telemetry: s.source == StartSource::Telemetry,
+                t_s: s.t,
+                lat_deg: s.lat,
+                lon_deg: s.lon,
+                alt_msl_m: s.alt_msl_m,
+                heading_deg: s.heading_deg,
+                speed_mps: s.speed_mps,
+            },
+        }
+    }
+
+    /// The answer, with what the row's columns hold.
+    pub fn into_out(self, row: &PlanRow) -> Result<PlanOut, String> {
+        let waypoints = self
+            .stack
+            .iter()
+            .map(api_item)
+            .collect::<Result<Vec<_>, _>>()?;
+        let first = self
+            .first_changed
+            .unwrap_or(waypoints.len())
+            .min(waypoints.len());
+        let s = self.start;
+        Ok(PlanOut {
+            plan_id: row.id.clone(),
+            mission_id: row.mission_id.clone(),
+            revision: row.revision,
+            base_revision: self.base_revision,
+            outcome: self.outcome,
+            seed: row.seed,
+            current_index: self.current_index,
+            diff: DiffOut {
+                first_changed: self.first_changed,
+                remove: self.removed,
+                insert: waypoints[first..].to_vec(),
+            },
+            waypoints,
+            risk: self.risk,
+            base_risk: self.base_risk,
+            exposure_m: self.exposure_m,
+            length_m: self.length_m,
+            added: self.added,
+            turn_violations: self.turn_violations,
+            compute_ms: self.compute_ms,
+            dynamic_risk: DynamicRisk {
+                source: if self.risk_map_used {
+                    DynamicSource::RiskMap
+                } else {
+                    DynamicSource::None
+                },
+                obstacles: self.moving_obstacles,
+            },
+            start: StartOut {
+                source: if s.from_telemetry {
+                    StartSource::Telemetry
+                } else {
+                    StartSource::Stack
+                },
+                t: s.t_s,
+                lat: s.lat_deg,
+                lon: s.lon_deg,
+                alt_msl_m: s.alt_msl_m,
+                heading_deg: s.heading_deg,
+                speed_mps: s.speed_mps,
+            },
+            created_at: format_rfc3339(row.created_at_s),
+        })
+    }
+
+    /// The `plans.body` text.
+    pub fn to_json(&self) -> Result<String, ApiError> {
+        serde_json::to_string(self).map_err(|e| ApiError::Internal(format!("plan record: {e}")))
+    }
+}
+
+fn stored_item(w: &PlanWaypoint) -> StoredItem {
+    StoredItem {
+        lat_deg: w.lat,
+        lon_deg: w.lon,
+        alt_msl_m: w.alt_msl_m,
+        kind: match w.kind {
+            KindOut::Mission => 'M',
+            KindOut::Avoid => 'A',
+            KindOut::Search => 'S',
+        },
+        mission_index: w.mission_index,
+    }
+}
+
+fn api_item(s: &StoredItem) -> Result<PlanWaypoint, String> {
+    Ok(PlanWaypoint {
+        lat: s.lat_deg,
+        lon: s.lon_deg,
+        alt_msl_m: s.alt_msl_m,
+        kind: match s.kind {
+            'M' => KindOut::Mission,
+            'A' => KindOut::Avoid,
+            'S' => KindOut::Search,
+            other => return Err(format!("unknown stack item kind '{other}'")),
+        },
+        mission_index: s.mission_index,
+    })
+}
+
+/// The API answer of a stored plan row: a record, or (rows written before records) the
+/// serialized answer itself.
+///
+/// # Errors
+/// 500 when the stored text is neither (the cause is logged, not returned).
+pub fn stored_plan_out(row: &PlanRow) -> Result<PlanOut, ApiError> {
+    let v: serde_json::Value = serde_json::from_str(&row.body)
+        .map_err(|e| ApiError::Internal(format!("plan {}: stored body: {e}", row.id)))?;
+    let out = if v.get("record").is_some() {
+        serde_json::from_value::<PlanRecord>(v)
+            .map_err(|e| e.to_string())
+            .and_then(|r| r.into_out(row))
+    } else {
+        serde_json::from_value::<PlanOut>(v).map_err(|e| e.to_string())
+    };
+    out.map_err(|e| ApiError::Internal(format!("plan {}: stored body: {e}", row.id)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn item(lat: f64, kind: KindOut, mission_index: Option<usize>) -> PlanWaypoint {
+        PlanWaypoint {
+            lat,
+            lon: -76.43,
+            alt_msl_m: 91.44,
+            kind,
+            mission_index,
+        }
+    }
+
+    /// A stored row and the answer it must give back.
+    fn sample() -> (PlanRow, PlanOut) {
+        let waypoints = vec![
+            item(38.14, KindOut::Mission, Some(0)),
+            item(38.141, KindOut::Avoid, None),
+            item(38.142, KindOut::Search, None),
+            item(38.143, KindOut::Mission, Some(1)),
+        ];
+        let created_at_s = 1_781_449_200.25;
+        let out = PlanOut {
+            plan_id: "00000000000000ab".into(),
+            mission_id: "m1".into(),
+            revision: 2,
+            base_revision: 1,
+            outcome: "approximate".into(),
+            seed: 7,
+            current_index: 1,
+            diff: DiffOut {
+                first_changed: Some(1),
+                remove: 1,
+                insert: waypoints[1..].to_vec(),
+            },
+            waypoints,
+            risk: 0.125,
+            base_risk: 0.5,
+            exposure_m: 3.5,
+            length_m: 1234.5,
+            added: 1,
+            turn_violations: vec![1],
+            compute_ms: 12.75,
+            dynamic_risk: DynamicRisk {
+                source: DynamicSource::RiskMap,
+                obstacles: 2,
+            },
+            start: StartOut {
+                source: StartSource::Telemetry,
+                t: created_at_s - 0.5,
+                lat: 38.139,
+                lon: -76.431,
+                alt_msl_m: 90.0,
+                heading_deg: 45.0,
+                speed_mps: 20.0,
+            },
+            created_at: format_rfc3339(created_at_s),
+        };
+        let row = PlanRow {
+            id: out.plan_id.clone(),
+            mission_id: out.mission_id.clone(),
+            revision: out.revision,
+            created_at_s,
+            seed: out.seed,
+            inputs: "{}".into(),
+            body: String::new(),
+        };
+        (row, out)
+    }
+
+    #[test]
+    fn a_record_gives_back_the_answer_it_was_made_from() {
+        let (mut row, out) = sample();
+        row.body = PlanRecord::from_out(&out).to_json().unwrap();
+        let v: serde_json::Value = serde_json::from_str(&row.body).unwrap();
+        // Its own shape: versioned, nothing the row's columns hold, no API field names.
+        assert_eq!(v["record"], 1);
+        for api_only in [
+            "plan_id",
+            "mission_id",
+            "seed",
+            "created_at",
+            "waypoints",
+            "diff",
+        ] {
+            assert!(v.get(api_only).is_none(), "{api_only} in {v}");
+        }
+        assert_eq!(stored_plan_out(&row).unwrap(), out);
+        // Nothing changed: the diff inserts nothing.
+        let (mut row, mut out) = sample();
+        out.diff = DiffOut {
+            first_changed: None,
+            remove: 0,
+            insert: vec![],
+        };
+        out.dynamic_risk.source = DynamicSource::None;
+        out.start.source = StartSource::Stack;
+        row.body = PlanRecord::from_out(&out).to_json().unwrap();
+        assert_eq!(stored_plan_out(&row).unwrap(), out);
+    }
+
+    #[test]
+    fn rows_written_before_records_still_read() {
+        let (mut row, out) = sample();
+        row.body = serde_json::to_string(&out).unwrap();
+        assert_eq!(stored_plan_out(&row).unwrap(), out);
+    }
+
+    #[test]
+    fn a_damaged_body_is_an_internal_error_not_a_panic() {
+        let (mut row, out) = sample();
+        let mut v = serde_json::to_value(PlanRecord::from_out(&out)).unwrap();
+        v["stack"][0]["kind"] = serde_json::json!("X");
+        row.body = v.to_string();
+        assert!(matches!(stored_plan_out(&row), Err(ApiError::Internal(_))));
+        row.body = "{\"record\": 1".into();
+        assert!(matches!(stored_plan_out(&row), Err(ApiError::Internal(_))));
+    }
+}
