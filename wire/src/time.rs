@@ -3,15 +3,41 @@
 
 use serde::{Deserialize, Deserializer, Serialize};
 
-/// A timestamp as the wire carries it: an RFC 3339 string or Unix seconds.
+/// A timestamp as the wire carries it: an RFC 3339 string or Unix seconds (a number >= 0).
+/// Its OpenAPI schema says exactly that (`oneOf` a `date-time` string or a number >= 0).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-#[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 #[serde(transparent)]
-#[cfg_attr(
-    feature = "openapi",
-    schema(value_type = serde_json::Value, example = "2026-06-14T15:04:05.25Z")
-)]
 pub struct WireTime(pub f64);
+
+#[cfg(feature = "openapi")]
+impl utoipa::PartialSchema for WireTime {
+    fn schema() -> utoipa::openapi::RefOr<utoipa::openapi::schema::Schema> {
+        use utoipa::openapi::schema::{
+            KnownFormat, ObjectBuilder, OneOfBuilder, SchemaFormat, Type,
+        };
+        OneOfBuilder::new()
+            .item(
+                ObjectBuilder::new()
+                    .schema_type(Type::String)
+                    .format(Some(SchemaFormat::KnownFormat(KnownFormat::DateTime)))
+                    .description(Some("RFC 3339, e.g. 2026-06-14T15:04:05.25Z")),
+            )
+            .item(
+                ObjectBuilder::new()
+                    .schema_type(Type::Number)
+                    .minimum(Some(0.0))
+                    .description(Some("Unix seconds")),
+            )
+            .description(Some(
+                "A time: an RFC 3339 string or Unix seconds (a number >= 0).",
+            ))
+            .examples([serde_json::json!("2026-06-14T15:04:05.25Z")])
+            .into()
+    }
+}
+
+#[cfg(feature = "openapi")]
+impl utoipa::ToSchema for WireTime {}
 
 impl<'de> Deserialize<'de> for WireTime {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -145,6 +171,23 @@ mod tests {
         );
         assert_eq!(format_rfc3339(-3.0), "1970-01-01T00:00:00.000000Z");
         assert!(format_rfc3339(1e300).starts_with("9999-12-"));
+    }
+
+    /// The schema states what the parser accepts: a `date-time` string or a number >= 0
+    /// (the values the parser refuses, negative numbers, are outside it).
+    #[cfg(feature = "openapi")]
+    #[test]
+    fn the_schema_is_a_date_time_string_or_a_non_negative_number() {
+        let v = serde_json::to_value(<WireTime as utoipa::PartialSchema>::schema()).unwrap();
+        let one_of = v["oneOf"].as_array().unwrap();
+        assert_eq!(one_of.len(), 2);
+        assert_eq!(one_of[0]["type"], "string");
+        assert_eq!(one_of[0]["format"], "date-time");
+        assert_eq!(one_of[1]["type"], "number");
+        assert_eq!(one_of[1]["minimum"], 0.0);
+        let example = v["examples"][0].clone();
+        assert!(serde_json::from_value::<WireTime>(example).is_ok());
+        assert!(serde_json::from_value::<WireTime>(serde_json::json!(-0.5)).is_err());
     }
 
     proptest::proptest! {
