@@ -8,20 +8,14 @@
 //! "Durably ingested" means acknowledged with 202 and counted as `accepted`; the count is
 //! checked against what the database holds at the end.
 
-use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
+mod support;
+
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
+use support::{env_or, spawn_jink};
 
 use serde_json::{Value, json};
-
-fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
-    std::env::var(k)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(d)
-}
 
 fn main() {
     let seconds: u64 = env_or("JINK_LOAD_SECONDS", 10);
@@ -30,22 +24,7 @@ fn main() {
     let db_url = std::env::var("JINK_LOAD_DATABASE_URL")
         .unwrap_or_else(|_| format!("sqlite://{}", dir.path().join("load.sqlite").display()));
 
-    let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
-        .args(["serve", "--bind", "127.0.0.1:0", "--database-url", &db_url])
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("start jink");
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let base = line
-        .trim()
-        .strip_prefix("jink listening on ")
-        .expect("listening line")
-        .to_string();
+    let (mut child, base) = spawn_jink(&db_url);
 
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(1)

@@ -21,12 +21,15 @@ use crate::store::Store;
 pub struct Settings {
     /// Largest accepted request body, bytes.
     pub max_body_bytes: usize,
+    /// Limits of the live mission state.
+    pub live: crate::live::LiveConfig,
 }
 
 impl Default for Settings {
     fn default() -> Self {
         Self {
             max_body_bytes: 2 * 1024 * 1024,
+            live: crate::live::LiveConfig::default(),
         }
     }
 }
@@ -42,20 +45,22 @@ pub struct AppState {
     pub settings: Arc<Settings>,
     /// Bounds concurrent CPU-heavy jobs (planning, risk maps) run with `spawn_blocking`.
     pub cpu: Arc<Semaphore>,
-    /// Per-mission obstacle predictors (built lazily from the store).
-    pub predict: Arc<crate::predict::PredictorCache>,
+    /// Per-mission live state: predictor and risk-map snapshots (built lazily from the
+    /// store).
+    pub live: Arc<crate::live::LiveStates>,
 }
 
 impl AppState {
     /// State over `store` with default settings.
     pub fn new(store: Store, settings: Settings) -> Self {
+        let settings_live = settings.live;
         let cores = std::thread::available_parallelism().map_or(2, std::num::NonZero::get);
         Self {
             store,
             metrics: Arc::new(Metrics::default()),
             settings: Arc::new(settings),
             cpu: Arc::new(Semaphore::new(cores)),
-            predict: Arc::default(),
+            live: Arc::new(crate::live::LiveStates::new(settings_live)),
         }
     }
 

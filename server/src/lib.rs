@@ -10,8 +10,8 @@ pub mod app;
 pub mod cli;
 pub mod error;
 pub mod extract;
+pub mod live;
 pub mod metrics;
-pub mod predict;
 pub mod store;
 
 pub use wire::{geodesy, interop, mission, time};

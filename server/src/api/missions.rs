@@ -133,6 +133,7 @@ async fn delete_mission(
     Path(id): Path<String>,
 ) -> Result<StatusCode, ApiError> {
     if state.store.delete_mission(&id).await? {
+        state.live.forget(&id);
         Ok(StatusCode::NO_CONTENT)
     } else {
         Err(ApiError::not_found("mission", id))

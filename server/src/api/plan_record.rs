@@ -16,6 +16,7 @@ use super::plans::{
     DiffOut, DynamicRisk, DynamicSource, KindOut, PlanOut, PlanWaypoint, StartOut, StartSource,
 };
 use crate::error::ApiError;
+use crate::live::plan_view::{PlanObstacle, PlanWarning};
 use crate::store::plans::PlanRow;
 use crate::time::format_rfc3339;
 
@@ -59,6 +60,15 @@ pub struct PlanRecord {
     pub moving_obstacles: usize,
     /// The start.
     pub start: StoredStart,
+    /// Obstacles considered or left out (records written before live state: none).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub obstacles: Vec<PlanObstacle>,
+    /// Warnings about the inputs.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<PlanWarning>,
+    /// The live snapshot's observation batch number.
+    #[serde(default)]
+    pub observation_seq: i64,
 }
 
 /// One stored stack item.
@@ -126,6 +136,9 @@ impl PlanRecord {
                 heading_deg: s.heading_deg,
                 speed_mps: s.speed_mps,
             },
+            obstacles: o.obstacles.clone(),
+            warnings: o.warnings.clone(),
+            observation_seq: o.observation_seq,
         }
     }
 
@@ -170,6 +183,9 @@ impl PlanRecord {
                 },
                 obstacles: self.moving_obstacles,
             },
+            obstacles: self.obstacles,
+            warnings: self.warnings,
+            observation_seq: self.observation_seq,
             start: StartOut {
                 source: if s.from_telemetry {
                     StartSource::Telemetry
@@ -288,6 +304,18 @@ mod tests {
                 source: DynamicSource::RiskMap,
                 obstacles: 2,
             },
+            obstacles: vec![PlanObstacle {
+                id: "0".into(),
+                stage: crate::api::risk::StageOut::Random,
+                last_t: created_at_s - 1.0,
+                considered: true,
+                left_out: None,
+            }],
+            warnings: vec![PlanWarning {
+                code: "obstacles_left_out".into(),
+                message: "1 left out".into(),
+            }],
+            observation_seq: 9,
             start: StartOut {
                 source: StartSource::Telemetry,
                 t: created_at_s - 0.5,

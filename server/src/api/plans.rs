@@ -4,13 +4,16 @@
 //! returns it as JSON, QGC WPL 110 or a QGroundControl `.plan` file.
 //!
 //! The start is the latest aircraft telemetry (else the stack item before the current
-//! index, at the current time). Dynamic risk: the stored obstacle observations of the last
-//! two minutes are fed to a `predictor::Predictor` and its risk map (10 m cells, 1 s slices
-//! over the horizon) is the planner's risk field; with no observations there is no dynamic
-//! risk. The least predictable obstacle stage sets the search's sample budget (NoFly 1.0,
-//! Random 0.8, Advanced 0.5, Memory 0.3 as the variability hint). Every plan is stored with its inputs (start, base stack, observations, parameters)
-//! and seed, so [`compute`] on the stored inputs replays it (bit for bit unless the deadline
-//! cut the search short).
+//! index, at the current time). Dynamic risk comes from the mission's live snapshot
+//! ([`crate::live`]): the predictor fed with every stored batch and its risk map (10 m
+//! cells, 1 s slices over the horizon); the plan never re-reads observations from the
+//! store. Which obstacles it considers, which it leaves out and why, and clock warnings
+//! follow the time rule of [`crate::live::plan_view`]. The least predictable considered
+//! stage sets the search's sample budget (NoFly 1.0, Random 0.8, Advanced 0.5, Memory 0.3
+//! as the variability hint). Every plan is stored with its inputs (start, base stack,
+//! parameters, the observation batch number its snapshot was cut at) and seed, so replay
+//! rebuilds the same snapshot from the store and [`compute`] gives the same plan (bit for
+//! bit unless the deadline cut the search short).
 
 use std::time::Instant;
 
@@ -23,18 +26,18 @@ use utoipa_axum::{router::OpenApiRouter, routes};
 
 use planner::export::{GeoItem, GeoPoint, PlanFileOptions, qgc_plan, qgc_wpl};
 use planner::{ItemKind, PlanOutcome, PlanParams, PlanRequest, StackItem, Strategy};
-use predictor::{NoRisk, Observation, Predictor, PredictorConfig, RiskField, RiskMapConfig, Stage};
+use predictor::{NoRisk, Predictor, RiskField};
 
 use super::plan_record::{PlanRecord, stored_plan_out};
 use crate::app::AppState;
 use crate::error::{ApiError, Problem};
 use crate::extract::{ApiJson, ApiQuery};
+use crate::live::Snapshot;
+use crate::live::plan_view::{PlanObstacle, PlanWarning, plan_view};
 use crate::mission::Mission;
 use crate::store::plans::{InsertPlanError, PlanRow};
 use crate::time::{format_rfc3339, now_s};
 
-/// Observations older than this before the start are not used, seconds.
-const OBSERVATION_WINDOW_S: f64 = 120.0;
 /// Longest accepted `deadline_ms`.
 const MAX_DEADLINE_MS: u64 = 60_000;
 
@@ -179,13 +182,17 @@ pub struct PlanInputs {
     pub stack: Vec<PlanWaypoint>,
     /// The start.
     pub start: StartOut,
-    /// Observations fed to the predictor. Not stored with a server plan (it can be
-    /// thousands of rows): `observation_window` names them instead.
+    /// Observations fed to the predictor (offline `jink plan`; server plans name their
+    /// batches with `observation_seq` instead).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub observations: Vec<ObservationUsed>,
-    /// Which stored observations the plan used (server plans), for replay.
+    /// Plans stored before live state: the stored observations they used, for replay.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub observation_window: Option<ObservationWindow>,
+    /// Server plans: the live snapshot's cut-off, every observation batch `<=` this
+    /// sequence number (replay rebuilds the snapshot from the store).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observation_seq: Option<i64>,
 }
 
 /// The stored observations a plan used: `after_us < t <= until_us`, received by
@@ -236,7 +243,7 @@ impl ObservationWindow {
 pub struct DynamicRisk {
     /// `risk_map` (predictor risk map from observations) or `none`.
     pub source: DynamicSource,
-    /// Moving obstacles with observations in the window.
+    /// Moving obstacles considered (in the risk map).
     pub obstacles: usize,
 }
 
@@ -290,6 +297,17 @@ pub struct PlanOut {
     pub compute_ms: f64,
     /// Dynamic risk used.
     pub dynamic_risk: DynamicRisk,
+    /// Every observed moving obstacle: its stage, its newest observation time, and
+    /// whether the plan considered it (else why not).
+    #[serde(default)]
+    pub obstacles: Vec<PlanObstacle>,
+    /// Anything suspicious about the inputs (clock mismatch, obstacles left out, no
+    /// telemetry); empty when all is well.
+    #[serde(default)]
+    pub warnings: Vec<PlanWarning>,
+    /// Observation batches the plan saw: all batches up to this sequence number.
+    #[serde(default)]
+    pub observation_seq: i64,
     /// The start.
     pub start: StartOut,
     /// When it was computed (RFC 3339).
@@ -367,12 +385,80 @@ pub struct Computed {
     pub plan: planner::Plan,
     /// Dynamic risk used.
     pub dynamic_risk: DynamicRisk,
+    /// Obstacles considered and left out.
+    pub obstacles: Vec<PlanObstacle>,
+    /// Warnings about the inputs.
+    pub warnings: Vec<PlanWarning>,
+    /// The snapshot's batch number.
+    pub observation_seq: i64,
     /// Time taken, ms.
     pub compute_ms: f64,
 }
 
-/// Plans `mission` from `inputs` (CPU work: call it off the async runtime).
-pub fn compute(mission: &Mission, inputs: &PlanInputs) -> Result<Computed, ApiError> {
+/// A snapshot built from explicit observations (offline plans, plans stored before live
+/// state), fed in time then obstacle order.
+pub fn snapshot_from_observations(mission: &Mission, observations: &[ObservationUsed]) -> Snapshot {
+    let mut rows: Vec<crate::store::ObservationRow> = observations
+        .iter()
+        .map(|o| crate::store::ObservationRow {
+            obstacle_id: o.obstacle_id.clone(),
+            t_s: o.t,
+            lat_deg: o.lat,
+            lon_deg: o.lon,
+            alt_msl_m: o.alt_msl_m,
+            radius_m: o.radius_m,
+        })
+        .collect();
+    crate::store::observations::sort_feeding_order(&mut rows);
+    let mut p = Predictor::new(crate::live::snapshot::predictor_config());
+    crate::live::snapshot::feed(&mut p, &mission.frame(), &rows);
+    Snapshot::build(mission, 0, std::sync::Arc::new(p))
+}
+
+/// Rebuilds the snapshot a stored plan used: batches through `observation_seq`, or (plans
+/// stored before live state) the observation window it named.
+///
+/// # Errors
+/// Database failures.
+pub async fn stored_snapshot(
+    state: &AppState,
+    mission: &Mission,
+    inputs: &PlanInputs,
+) -> Result<Snapshot, ApiError> {
+    if let Some(seq) = inputs.observation_seq {
+        let rows: Vec<crate::store::ObservationRow> = state
+            .store
+            .list_observations_through(&mission.id, -1, seq)
+            .await?
+            .into_iter()
+            .map(|(_, r)| r)
+            .collect();
+        let m = mission.clone();
+        return state
+            .run_cpu(move || {
+                let mut p = Predictor::new(crate::live::snapshot::predictor_config());
+                crate::live::snapshot::feed(&mut p, &m.frame(), &rows);
+                Snapshot::build(&m, seq, std::sync::Arc::new(p))
+            })
+            .await;
+    }
+    let obs = match inputs.observation_window {
+        Some(w) => w.fetch(&state.store, &mission.id).await?,
+        None => inputs.observations.clone(),
+    };
+    let m = mission.clone();
+    state
+        .run_cpu(move || snapshot_from_observations(&m, &obs))
+        .await
+}
+
+/// Plans `mission` from `inputs` and the live `snap` (CPU work: call it off the async
+/// runtime).
+pub fn compute(
+    mission: &Mission,
+    inputs: &PlanInputs,
+    snap: &Snapshot,
+) -> Result<Computed, ApiError> {
     let started = Instant::now();
     let deadline = inputs
         .deadline_ms
@@ -405,63 +491,24 @@ pub fn compute(mission: &Mission, inputs: &PlanInputs) -> Result<Computed, ApiEr
         t_s: s.t,
     };
 
-    // Dynamic risk from the observations.
-    let mut pred = Predictor::new(PredictorConfig::default());
-    let mut ids = std::collections::BTreeSet::new();
-    for o in &inputs.observations {
-        ids.insert(o.obstacle_id.clone());
-        pred.observe(
-            &o.obstacle_id,
-            Observation {
-                t_s: o.t,
-                p_m: frame.to_enu(o.lat, o.lon),
-                alt_m: o.alt_msl_m,
-                radius_m: o.radius_m,
-            },
-        );
-    }
-    let map = if ids.is_empty() || inputs.strategy == StrategyIn::Insertion {
-        None
-    } else {
-        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-        for p in pm
-            .fly_zones
-            .iter()
-            .flat_map(|z| z.boundary_m.iter())
-            .chain(std::iter::once(&state.p_m))
-        {
-            lo = [lo[0].min(p[0]), lo[1].min(p[1])];
-            hi = [hi[0].max(p[0]), hi[1].max(p[1])];
-        }
-        let cfg = RiskMapConfig::default()
-            .bounds(
-                [lo[0] - 300.0, lo[1] - 300.0],
-                [hi[0] + 300.0, hi[1] + 300.0],
-            )
-            .cell_m(10.0)
-            .time(1.0, inputs.horizon_s.max(1.0));
-        let path: Vec<[f64; 2]> = std::iter::once(state.p_m)
-            .chain(base.iter().skip(inputs.current_index).map(|i| i.p_m))
-            .collect();
-        pred.build_risk_map(&cfg, &path, state.t_s).ok()
-    };
+    // Dynamic risk from the live snapshot.
+    let view = plan_view(
+        mission,
+        snap,
+        s.t,
+        s.source == StartSource::Telemetry,
+        inputs.horizon_s,
+        inputs.strategy != StrategyIn::Insertion,
+    )
+    .map_err(|e| ApiError::Internal(format!("risk map: {e}")))?;
+    let map = view.map.clone();
     let risk: &dyn RiskField = match &map {
-        Some(m) => m,
+        Some(m) => m.as_ref(),
         None => &NoRisk,
     };
     // Sample budget: the least predictable stage among the obstacles sets the variability
     // hint (seed 002: more variable obstacles earn more samples).
-    let variability = pred
-        .obstacles()
-        .map(|o| match o.stage {
-            Stage::NoFly => 1.0,
-            Stage::Random => 0.8,
-            Stage::Advanced => 0.5,
-            Stage::Memory => 0.3,
-        })
-        .fold(None, |acc: Option<f64>, v| {
-            Some(acc.map_or(v, |a| a.max(v)))
-        });
+    let variability = view.variability;
     let mut params = PlanParams::default()
         .horizon_s(inputs.horizon_s)
         .deadline(deadline);
@@ -533,8 +580,11 @@ pub fn compute(mission: &Mission, inputs: &PlanInputs) -> Result<Computed, ApiEr
             } else {
                 DynamicSource::None
             },
-            obstacles: ids.len(),
+            obstacles: view.obstacles.iter().filter(|o| o.considered).count(),
         },
+        obstacles: view.obstacles,
+        warnings: view.warnings,
+        observation_seq: snap.seq,
         plan,
         compute_ms: started.elapsed().as_secs_f64() * 1e3,
     })
@@ -568,6 +618,9 @@ pub fn plan_out(
         turn_violations: c.plan.turn_violations.clone(),
         compute_ms: c.compute_ms,
         dynamic_risk: c.dynamic_risk,
+        obstacles: c.obstacles.clone(),
+        warnings: c.warnings.clone(),
+        observation_seq: c.observation_seq,
         start: inputs.start,
         created_at: format_rfc3339(now),
     }
@@ -675,12 +728,7 @@ async fn create_plan(
         },
         None => stack_start(&mission, &stack, current_index, now),
     };
-    let window = ObservationWindow {
-        after_us: crate::time::to_us(start.t - OBSERVATION_WINDOW_S),
-        until_us: crate::time::to_us(start.t),
-        received_until_us: crate::time::to_us(now),
-    };
-    let observations = window.fetch(&state.store, &id).await?;
+    let snap = state.live.snapshot(&state, &mission).await?;
     let inputs = PlanInputs {
         seed: body.seed.unwrap_or_else(new_seed),
         strategy: body.strategy.unwrap_or_default(),
@@ -691,11 +739,12 @@ async fn create_plan(
         current_index,
         stack,
         start,
-        observations,
-        observation_window: Some(window),
+        observations: Vec::new(),
+        observation_window: None,
+        observation_seq: Some(snap.seq),
     };
     let (m2, in2) = (mission.clone(), inputs.clone());
-    let computed = state.run_cpu(move || compute(&m2, &in2)).await??;
+    let computed = state.run_cpu(move || compute(&m2, &in2, &snap)).await??;
     let plan_id = format!("{:016x}", rand::random::<u64>());
     let revision = latest + 1;
     let out = plan_out(
@@ -713,13 +762,8 @@ async fn create_plan(
         revision,
         created_at_s: now,
         seed: inputs.seed,
-        // The window names the observations; storing them again would cost up to ~1 MB
-        // per plan at 10 obstacles x 10 Hz x 120 s.
-        inputs: serde_json::to_string(&PlanInputs {
-            observations: Vec::new(),
-            ..inputs.clone()
-        })
-        .map_err(|e| ApiError::Internal(e.to_string()))?,
+        // `observation_seq` names the observations (every batch up to it).
+        inputs: serde_json::to_string(&inputs).map_err(|e| ApiError::Internal(e.to_string()))?,
         body: PlanRecord::from_out(&out).to_json()?,
     };
     match state.store.insert_plan(&row).await {
@@ -886,7 +930,8 @@ pub struct ReplayOut {
     /// `compute_ms` and `created_at`).
     pub identical: bool,
     /// Why a replay may differ: `deadline` (the plan was cut short by `deadline_ms`, so it
-    /// is anytime), or null.
+    /// is anytime), `stored_before_live_state` (its observations are replayed through
+    /// today's live-state pipeline), or null.
     pub caveat: Option<String>,
     /// The replayed plan.
     pub replayed: PlanOut,
@@ -913,14 +958,14 @@ async fn replay_plan(
         .get_plan(&id, &plan_id)
         .await?
         .ok_or_else(|| ApiError::not_found("plan", plan_id.clone()))?;
-    let mut inputs: PlanInputs =
+    let inputs: PlanInputs =
         serde_json::from_str(&row.inputs).map_err(|e| ApiError::Internal(e.to_string()))?;
     let stored = stored_plan_out(&row)?;
-    if let Some(w) = inputs.observation_window {
-        inputs.observations = w.fetch(&state.store, &id).await?;
-    }
+    let snap = stored_snapshot(&state, &mission, &inputs).await?;
     let in2 = inputs.clone();
-    let computed = state.run_cpu(move || compute(&mission, &in2)).await??;
+    let computed = state
+        .run_cpu(move || compute(&mission, &in2, &snap))
+        .await??;
     let replayed = plan_out(
         &id,
         row.id.clone(),
@@ -941,7 +986,13 @@ async fn replay_plan(
     Ok(axum::Json(ReplayOut {
         plan_id: row.id,
         identical: strip(&stored) == strip(&replayed),
-        caveat: inputs.deadline_ms.map(|_| "deadline".to_string()),
+        caveat: if inputs.deadline_ms.is_some() {
+            Some("deadline".to_string())
+        } else if inputs.observation_seq.is_none() {
+            Some("stored_before_live_state".to_string())
+        } else {
+            None
+        },
         replayed,
     }))
 }

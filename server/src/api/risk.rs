@@ -3,9 +3,9 @@
 //! stage history (stationary cylinders too), and `GET /api/v1/missions/{id}/risk` returns a
 //! risk-map slice as JSON or as a PNG heatmap.
 //!
-//! The mission's predictor comes from [`crate::predict::PredictorCache`]: built from the
-//! stored observations on first use (so it survives a restart) and kept current by the
-//! observation POST handler.
+//! Both read the mission's live snapshot ([`crate::live`]): the same predictor and risk
+//! map a plan asked at the same moment uses (built from the stored observations on first
+//! use, so it survives a restart, and kept current by every accepted batch).
 
 use axum::extract::{Path, State};
 use axum::http::{HeaderValue, header};
@@ -184,16 +184,13 @@ async fn list_obstacles(
         .get_mission(&id)
         .await?
         .ok_or_else(|| ApiError::not_found("mission", &id))?;
-    let shared = state.predict.get(&state, &state.store, &mission).await?;
+    let snap = state.live.snapshot(&state, &mission).await?;
     let mut out: Vec<ObstacleOut> = {
-        let mp = shared
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner);
-        mp.predictor
+        snap.predictor
             .obstacles()
             .map(|s| {
-                let (lat, lon) = mp.frame.to_geodetic(s.estimates.position_m);
-                let (olat, olon) = mp.frame.to_geodetic(s.last_observation.p_m);
+                let (lat, lon) = snap.frame.to_geodetic(s.estimates.position_m);
+                let (olat, olon) = snap.frame.to_geodetic(s.last_observation.p_m);
                 ObstacleOut {
                     id: s.id.clone(),
                     kind: ObstacleKind::Moving,
@@ -331,7 +328,7 @@ async fn get_risk(
         .get_mission(&id)
         .await?
         .ok_or_else(|| ApiError::not_found("mission", &id))?;
-    let shared = state.predict.get(&state, &state.store, &mission).await?;
+    let snap = state.live.snapshot(&state, &mission).await?;
     let telemetry_t = state
         .store
         .list_telemetry(&id, Some(1))
@@ -341,18 +338,27 @@ async fn get_risk(
     let format = q.format.unwrap_or(RiskFormat::Json);
     let out = state
         .run_cpu(move || {
-            let mut mp = shared
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            let obs_t = mp.predictor.latest_t_s();
+            let obs_t = snap.anchor_t_s;
             let anchor = match (telemetry_t, obs_t) {
                 (Some(a), Some(b)) => Some(a.max(b)),
                 (a, b) => a.or(b),
             };
-            let cfg = mp.map_cfg.clone();
-            let frame = mp.frame;
+            let frame = snap.frame;
             let t0 = anchor.unwrap_or(0.0);
-            let map = mp.predictor.risk_map(&cfg, &[], t0);
+            let empty;
+            let map = match &snap.map {
+                Some(m) => m.as_ref(),
+                None => {
+                    // No observation yet: an empty map over the mission's grid.
+                    empty = predictor::RiskMap::new(
+                        crate::live::map_config(&mission, crate::live::snapshot::LIVE_HORIZON_S),
+                        &[],
+                        t0,
+                    )
+                    .map_err(|e| ApiError::Internal(format!("risk map: {e}")))?;
+                    &empty
+                }
+            };
             let slice = map.slice(t0 + ahead);
             let horizon_s = map.horizon_s();
             match format {
@@ -385,7 +391,7 @@ async fn get_risk(
                     )
                 }
                 RiskFormat::Png => {
-                    let movers: Vec<([f64; 2], [f64; 2], f64)> = mp
+                    let movers: Vec<([f64; 2], [f64; 2], f64)> = snap
                         .predictor
                         .obstacles()
                         .map(|s| {

@@ -175,13 +175,13 @@ async fn post_obstacles(
             validate_batch(&batch, received)?
         };
     // The insert itself answers "no such mission" (a foreign key), in one round trip.
-    let counts = state
+    let batch = state
         .store
         .insert_observations(&id, &rows, received)
         .await?
         .ok_or_else(|| ApiError::not_found("mission", &id))?;
-    state.predict.feed(&id, &rows);
-    Ok((StatusCode::ACCEPTED, axum::Json(counts.into())))
+    state.live.apply(&state, &id, &batch).await;
+    Ok((StatusCode::ACCEPTED, axum::Json(batch.counts.into())))
 }
 
 fn validate_batch(

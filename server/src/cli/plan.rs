@@ -132,8 +132,10 @@ pub fn run(args: PlanArgs) -> ExitCode {
         start: stack_start(&m, &[], current_index, t0),
         observations,
         observation_window: None,
+        observation_seq: None,
     };
-    let computed = match compute(&m, &inputs) {
+    let snap = crate::api::plans::snapshot_from_observations(&m, &inputs.observations);
+    let computed = match compute(&m, &inputs, &snap) {
         Ok(c) => c,
         Err(e) => return fail(e),
     };

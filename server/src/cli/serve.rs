@@ -40,6 +40,15 @@ pub struct ServeArgs {
     #[arg(long, env = "JINK_MAX_BODY_BYTES", default_value_t = 2 * 1024 * 1024)]
     pub max_body_bytes: usize,
 
+    /// A mission's live state (predictor and risk map) unused for this many seconds is
+    /// dropped from memory; its next use rebuilds it from the database.
+    #[arg(long, env = "JINK_LIVE_IDLE_S", default_value_t = 600)]
+    pub live_idle_s: u64,
+
+    /// At most this many missions are kept live; the least recently used is dropped first.
+    #[arg(long, env = "JINK_LIVE_MAX_MISSIONS", default_value_t = 1000)]
+    pub live_max_missions: usize,
+
     /// Log format on stderr. Levels come from `RUST_LOG` (default `info`).
     #[arg(long, env = "JINK_LOG_FORMAT", value_enum, default_value = "text")]
     pub log_format: LogFormat,
@@ -83,8 +92,19 @@ pub fn run(args: ServeArgs) -> ExitCode {
             store,
             Settings {
                 max_body_bytes: args.max_body_bytes,
+                live: crate::live::LiveConfig {
+                    idle: std::time::Duration::from_secs(args.live_idle_s.max(1)),
+                    max_missions: args.live_max_missions.max(1),
+                },
             },
         );
+        if state.store.backend() == crate::store::Backend::Postgres {
+            // Other replicas' batches reach this replica's live state.
+            tokio::spawn(crate::live::notify::listen(
+                state.clone(),
+                args.database_url.clone(),
+            ));
+        }
         match crate::app::serve(args.bind, state).await {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {

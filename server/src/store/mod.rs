@@ -16,6 +16,7 @@ use sqlx::{AnyPool, AssertSqlSafe, Executor, Row};
 use crate::mission::Mission;
 use crate::time::{from_us, to_us};
 
+pub mod observations;
 pub mod plans;
 
 /// A runtime-checked query on the `Any` driver.
@@ -287,51 +288,6 @@ impl Store {
 
     // ---- telemetry ---------------------------------------------------------------------
 
-    /// Stores obstacle observations, all or none; a row whose (mission, obstacle, time) is
-    /// already stored is a duplicate and is not stored again (the first one wins).
-    /// `Ok(None)` when the mission does not exist.
-    #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]
-    pub async fn insert_observations(
-        &self,
-        mission_id: &str,
-        rows: &[ObservationRow],
-        received_at_s: f64,
-    ) -> Result<Option<InsertCounts>, sqlx::Error> {
-        missing_mission(
-            self.insert_observations_inner(mission_id, rows, received_at_s)
-                .await,
-        )
-    }
-
-    async fn insert_observations_inner(
-        &self,
-        mission_id: &str,
-        rows: &[ObservationRow],
-        received_at_s: f64,
-    ) -> Result<InsertCounts, sqlx::Error> {
-        if rows.is_empty() {
-            // Still answer 404 for an unknown mission.
-            return self.empty_batch(mission_id).await;
-        }
-        let received_us = to_us(received_at_s);
-        self.insert_batch(
-            "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us) VALUES ",
-            8,
-            rows,
-            |q, r| {
-                q.bind(mission_id.to_string())
-                    .bind(r.obstacle_id.clone())
-                    .bind(to_us(r.t_s))
-                    .bind(r.lat_deg)
-                    .bind(r.lon_deg)
-                    .bind(r.alt_msl_m)
-                    .bind(r.radius_m)
-                    .bind(received_us)
-            },
-        )
-        .await
-    }
-
     /// Inserts `rows` in one transaction with `ON CONFLICT DO NOTHING`, `cols` placeholders
     /// per row bound by `bind`, and counts how many were new.
     async fn insert_batch<T>(
@@ -510,7 +466,7 @@ async fn checkpoint_loop(pool: AnyPool) {
 }
 
 /// `Ok(None)` for an insert that failed because its mission does not exist.
-fn missing_mission<T>(r: Result<T, sqlx::Error>) -> Result<Option<T>, sqlx::Error> {
+pub(crate) fn missing_mission<T>(r: Result<T, sqlx::Error>) -> Result<Option<T>, sqlx::Error> {
     match r {
         Ok(v) => Ok(Some(v)),
         Err(sqlx::Error::Database(e))
@@ -527,7 +483,7 @@ fn missing_mission<T>(r: Result<T, sqlx::Error>) -> Result<Option<T>, sqlx::Erro
 pub const CHILD_TABLES: &[&str] = &["obstacle_observations", "aircraft_telemetry", "plans"];
 
 /// Decodes `SELECT obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m`.
-fn observation_row(r: &sqlx::any::AnyRow) -> Result<ObservationRow, sqlx::Error> {
+pub(crate) fn observation_row(r: &sqlx::any::AnyRow) -> Result<ObservationRow, sqlx::Error> {
     Ok(ObservationRow {
         obstacle_id: r.try_get(0)?,
         t_s: from_us(r.try_get(1)?),
@@ -544,7 +500,7 @@ fn decode_mission(body: &str) -> Result<Mission, sqlx::Error> {
 
 /// `INSERT ... VALUES ($1,..,$k), ($k+1,..) <tail>` for `rows` rows of `cols` columns.
 /// Only placeholders are generated: no value is ever spliced into the SQL.
-fn values_sql(head: &str, cols: usize, rows: usize, tail: &str) -> String {
+pub(crate) fn values_sql(head: &str, cols: usize, rows: usize, tail: &str) -> String {
     let mut s = String::with_capacity(head.len() + rows * cols * 5 + tail.len());
     s.push_str(head);
     for r in 0..rows {

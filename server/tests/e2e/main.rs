@@ -5,9 +5,11 @@ mod support;
 
 mod durability;
 mod errors;
+mod live;
 mod missions;
 mod plans;
 mod predictor;
 mod reactive;
 mod service;
 mod telemetry;
+mod walkthrough;

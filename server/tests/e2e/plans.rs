@@ -47,7 +47,8 @@ async fn webster_with_traffic(app: &App) -> String {
     id
 }
 
-async fn plan(app: &App, id: &str, body: Value) -> Value {
+/// Asks for a plan and expects 201.
+pub async fn plan(app: &App, id: &str, body: Value) -> Value {
     let r = app
         .post_json(&format!("/api/v1/missions/{id}/plan"), &body)
         .await;

@@ -138,6 +138,22 @@ impl App {
         self.child = Some(child);
     }
 
+    /// A second `jink serve` on the same database (a replica); it does not own the
+    /// database, so drop it before `self`.
+    pub fn replica(&self) -> App {
+        let mut app = App {
+            base: String::new(),
+            client: self.client.clone(),
+            db_url: self.db_url.clone(),
+            child: None,
+            pg_db: None,
+            dir: tempfile::tempdir().unwrap(),
+            extra_args: self.extra_args.clone(),
+        };
+        app.start();
+        app
+    }
+
     /// Kills the process with SIGKILL (no shutdown handling at all) and starts a new one
     /// on the same database.
     pub fn kill9_and_restart(&mut self) {

@@ -1,0 +1,34 @@
+//! Shared by the load benchmarks: environment knobs and starting the real `jink serve`.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+
+/// The value of environment variable `k`, else `d`.
+pub fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
+    std::env::var(k)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(d)
+}
+
+/// Starts `jink serve` on a free loopback port over `db_url`; returns the process and its
+/// base URL (`http://127.0.0.1:PORT`).
+pub fn spawn_jink(db_url: &str) -> (Child, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
+        .args(["serve", "--bind", "127.0.0.1:0", "--database-url", db_url])
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("start jink");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let base = line
+        .trim()
+        .strip_prefix("jink listening on ")
+        .expect("listening line")
+        .to_string();
+    (child, base)
+}

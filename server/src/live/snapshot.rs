@@ -1,0 +1,170 @@
+//! An immutable view of one mission's live state: the predictor as of a batch sequence
+//! number and the risk map built from it. Plans, `GET .../obstacles` and `GET .../risk`
+//! read snapshots, so what an operator sees is what the planner used.
+//!
+//! A snapshot is a deterministic function of (mission, observation rows through `seq` in
+//! feeding order): the predictor is fed batch by batch, and the map is always a full build
+//! (never the rounding-drifting incremental one) anchored at the newest observation time,
+//! over the obstacles observed within [`STALE_AFTER_S`] of it. A stored plan records `seq`,
+//! and replay rebuilds the same snapshot from the store ([`Snapshot::build`]), bit for bit.
+//!
+//! # Units
+//! Times are Unix seconds (the mission clock, see the README's "Time rule"); ENU metres.
+
+use std::sync::Arc;
+
+use predictor::{Observation, Predictor, PredictorConfig, RiskMap, RiskMapConfig};
+
+use crate::geodesy::LocalFrame;
+use crate::mission::Mission;
+use crate::store::ObservationRow;
+
+/// Risk-map cell size of the live map, metres (maps cover the fly zones plus a margin).
+pub const SERVICE_CELL_M: f64 = 10.0;
+/// Margin around the fly zones' bounding box, metres.
+pub const SERVICE_MARGIN_M: f64 = 300.0;
+/// Horizon of the live map, seconds (the plans' default horizon).
+pub const LIVE_HORIZON_S: f64 = 60.0;
+/// Slice interval of the risk maps, seconds.
+pub const SLICE_DT_S: f64 = 1.0;
+/// An obstacle whose newest observation is older than the map's anchor by more than this
+/// is left out of the live map (its prediction has expired), seconds.
+pub const STALE_AFTER_S: f64 = LIVE_HORIZON_S;
+
+/// The one risk-map configuration of a mission's maps (live, plans, replays): the fly
+/// zones' and home's bounding box plus [`SERVICE_MARGIN_M`], [`SERVICE_CELL_M`] cells,
+/// [`SLICE_DT_S`] slices over `horizon_s`.
+pub fn map_config(mission: &Mission, horizon_s: f64) -> RiskMapConfig {
+    let frame = mission.frame();
+    let (mut lo, mut hi) = ([0.0f64; 2], [0.0f64; 2]);
+    for p in mission
+        .content
+        .fly_zones
+        .iter()
+        .flat_map(|z| z.boundary.iter())
+    {
+        let q = frame.to_enu(p.lat, p.lon);
+        lo = [lo[0].min(q[0]), lo[1].min(q[1])];
+        hi = [hi[0].max(q[0]), hi[1].max(q[1])];
+    }
+    RiskMapConfig::default()
+        .bounds(
+            [lo[0] - SERVICE_MARGIN_M, lo[1] - SERVICE_MARGIN_M],
+            [hi[0] + SERVICE_MARGIN_M, hi[1] + SERVICE_MARGIN_M],
+        )
+        .cell_m(SERVICE_CELL_M)
+        .time(SLICE_DT_S, horizon_s.max(SLICE_DT_S))
+}
+
+/// Feeds stored rows, in the order given (feeding order), to `predictor`.
+pub fn feed(predictor: &mut Predictor, frame: &LocalFrame, rows: &[ObservationRow]) {
+    for r in rows {
+        predictor.observe(
+            &r.obstacle_id,
+            Observation {
+                t_s: r.t_s,
+                p_m: frame.to_enu(r.lat_deg, r.lon_deg),
+                alt_m: r.alt_msl_m,
+                radius_m: r.radius_m,
+            },
+        );
+    }
+}
+
+/// The predictor configuration of the service.
+pub fn predictor_config() -> PredictorConfig {
+    PredictorConfig::default()
+}
+
+/// Builds a map anchored at `t0_s` from the obstacles `ids` (ascending, as a full rebuild
+/// orders them) of `predictor`: the same cells, bit for bit, whoever builds it.
+///
+/// # Errors
+/// An invalid configuration (a mission whose bounds are degenerate).
+pub fn build_map(
+    predictor: &Predictor,
+    cfg: &RiskMapConfig,
+    ids: &[String],
+    t0_s: f64,
+) -> Result<RiskMap, predictor::RiskMapError> {
+    let mut map = RiskMap::new(cfg.clone(), &[], t0_s)?;
+    for id in ids {
+        predictor.update_map_obstacle(&mut map, id);
+    }
+    Ok(map)
+}
+
+/// One mission's live state as of batch `seq`.
+#[derive(Debug, Clone)]
+pub struct Snapshot {
+    /// Observation batches applied: every row of batches `<= seq`, none after.
+    pub seq: i64,
+    /// The predictor (tracks, estimates, stages, stage history).
+    pub predictor: Arc<Predictor>,
+    /// The mission's ENU frame.
+    pub frame: LocalFrame,
+    /// The map's anchor: the newest observation time, Unix seconds (None: no observation).
+    pub anchor_t_s: Option<f64>,
+    /// Obstacles in the map (observed within [`STALE_AFTER_S`] of the anchor), ascending.
+    pub map_ids: Vec<String>,
+    /// The live map ([`LIVE_HORIZON_S`]); None without observations.
+    pub map: Option<Arc<RiskMap>>,
+    /// How long building the map took, milliseconds.
+    pub build_ms: f64,
+}
+
+impl Snapshot {
+    /// The snapshot of `predictor` after batch `seq` (CPU work: one full map build).
+    pub fn build(mission: &Mission, seq: i64, predictor: Arc<Predictor>) -> Self {
+        let started = std::time::Instant::now();
+        let frame = mission.frame();
+        let anchor_t_s = predictor.latest_t_s();
+        let (map_ids, map) = match anchor_t_s {
+            None => (Vec::new(), None),
+            Some(t0) => {
+                let ids = fresh_ids(&predictor, t0 - STALE_AFTER_S);
+                let map =
+                    match build_map(&predictor, &map_config(mission, LIVE_HORIZON_S), &ids, t0) {
+                        Ok(m) => Some(Arc::new(m)),
+                        Err(e) => {
+                            // Plans then build their own map and report the error.
+                            tracing::warn!(mission = %mission.id, error = %e, "no live risk map");
+                            None
+                        }
+                    };
+                (ids, map)
+            }
+        };
+        Self {
+            seq,
+            predictor,
+            frame,
+            anchor_t_s,
+            map_ids,
+            map,
+            build_ms: started.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+
+    /// An empty snapshot (before anything was loaded).
+    pub fn empty(mission: &Mission) -> Self {
+        Self {
+            seq: -1,
+            predictor: Arc::new(Predictor::new(predictor_config())),
+            frame: mission.frame(),
+            anchor_t_s: None,
+            map_ids: Vec::new(),
+            map: None,
+            build_ms: 0.0,
+        }
+    }
+}
+
+/// Ids (ascending) of the obstacles whose newest observation is at or after `since_t_s`.
+pub fn fresh_ids(predictor: &Predictor, since_t_s: f64) -> Vec<String> {
+    predictor
+        .obstacles()
+        .filter(|o| o.last_observation.t_s >= since_t_s)
+        .map(|o| o.id)
+        .collect()
+}

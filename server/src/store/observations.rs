@@ -1,0 +1,161 @@
+//! Moving-obstacle observations, stored in numbered batches.
+//!
+//! Every accepted batch takes its mission's next sequence number (`missions.obs_seq`,
+//! bumped inside the batch's transaction). On PostgreSQL the bump locks the mission row
+//! until the commit, so batches of one mission commit in sequence order: once batch `n`
+//! is visible, every batch before it is too, and "rows with `seq > n`" is a complete
+//! catch-up read. On PostgreSQL the commit also sends `NOTIFY jink_observations,
+//! '<seq> <mission id>'` (delivered only if the transaction commits), which other replicas
+//! listen to (`crate::live::notify`).
+//!
+//! The order in which the live state feeds rows to the predictor is the order
+//! [`Store::list_observations_through`] returns them in: by sequence number, then time,
+//! then obstacle id (byte order, sorted here so that no database collation matters).
+
+use sqlx::{AssertSqlSafe, Row};
+
+use super::{Backend, InsertCounts, ObservationRow, Store, observation_row, values_sql};
+use crate::time::to_us;
+
+/// PostgreSQL notification channel announcing committed observation batches; the payload
+/// is `"<seq> <mission id>"`.
+pub const OBSERVATION_CHANNEL: &str = "jink_observations";
+
+/// One committed observation batch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredBatch {
+    /// The batch's sequence number within its mission (1, 2, ...).
+    pub seq: i64,
+    /// New and duplicate counts.
+    pub counts: InsertCounts,
+    /// The rows actually stored (duplicates left out), in feeding order (time, then
+    /// obstacle id), with their times as stored (microseconds).
+    pub stored: Vec<ObservationRow>,
+}
+
+/// Sorts rows into feeding order: time, then obstacle id (bytes).
+pub fn sort_feeding_order(rows: &mut [ObservationRow]) {
+    rows.sort_by(|a, b| {
+        to_us(a.t_s)
+            .cmp(&to_us(b.t_s))
+            .then_with(|| a.obstacle_id.as_bytes().cmp(b.obstacle_id.as_bytes()))
+    });
+}
+
+impl Store {
+    /// Stores obstacle observations as the mission's next batch, all or none; a row whose
+    /// (mission, obstacle, time) is already stored is a duplicate and is not stored again
+    /// (the first one wins). `Ok(None)` when the mission does not exist.
+    ///
+    /// # Errors
+    /// Database failures.
+    #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]
+    pub async fn insert_observations(
+        &self,
+        mission_id: &str,
+        rows: &[ObservationRow],
+        received_at_s: f64,
+    ) -> Result<Option<StoredBatch>, sqlx::Error> {
+        let received_us = to_us(received_at_s);
+        let mut tx = self.write.begin().await?;
+        let Some(seq_row) = sqlx::query(
+            "UPDATE missions SET obs_seq = obs_seq + 1 WHERE id = $1 RETURNING obs_seq",
+        )
+        .bind(mission_id.to_string())
+        .fetch_optional(&mut *tx)
+        .await?
+        else {
+            return Ok(None);
+        };
+        let seq: i64 = seq_row.try_get(0)?;
+        let mut stored = Vec::with_capacity(rows.len());
+        for chunk in rows.chunks(500) {
+            let sql = values_sql(
+                "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq) VALUES ",
+                9,
+                chunk.len(),
+                " ON CONFLICT DO NOTHING RETURNING obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m",
+            );
+            let mut q = sqlx::query(AssertSqlSafe(sql));
+            for r in chunk {
+                q = q
+                    .bind(mission_id.to_string())
+                    .bind(r.obstacle_id.clone())
+                    .bind(to_us(r.t_s))
+                    .bind(r.lat_deg)
+                    .bind(r.lon_deg)
+                    .bind(r.alt_msl_m)
+                    .bind(r.radius_m)
+                    .bind(received_us)
+                    .bind(seq);
+            }
+            for r in q.fetch_all(&mut *tx).await? {
+                stored.push(observation_row(&r)?);
+            }
+        }
+        if self.backend == Backend::Postgres {
+            sqlx::query("SELECT 1 FROM (SELECT pg_notify($1, $2)) AS n")
+                .bind(OBSERVATION_CHANNEL)
+                .bind(format!("{seq} {mission_id}"))
+                .execute(&mut *tx)
+                .await?;
+        }
+        tx.commit().await?;
+        sort_feeding_order(&mut stored);
+        let accepted = stored.len() as u64;
+        Ok(Some(StoredBatch {
+            seq,
+            counts: InsertCounts {
+                accepted,
+                duplicate: rows.len() as u64 - accepted,
+            },
+            stored,
+        }))
+    }
+
+    /// The mission's newest committed batch number (0 before the first batch); `None`
+    /// when the mission does not exist.
+    ///
+    /// # Errors
+    /// Database failures.
+    pub async fn observation_seq(&self, mission_id: &str) -> Result<Option<i64>, sqlx::Error> {
+        let row = sqlx::query("SELECT obs_seq FROM missions WHERE id = $1")
+            .bind(mission_id.to_string())
+            .fetch_optional(&self.read)
+            .await?;
+        row.map(|r| r.try_get(0)).transpose()
+    }
+
+    /// The rows of batches `after_seq < seq <= through_seq`, in feeding order (sequence
+    /// number, time, obstacle id), each with its batch number.
+    ///
+    /// # Errors
+    /// Database failures.
+    #[tracing::instrument(skip(self))]
+    pub async fn list_observations_through(
+        &self,
+        mission_id: &str,
+        after_seq: i64,
+        through_seq: i64,
+    ) -> Result<Vec<(i64, ObservationRow)>, sqlx::Error> {
+        let rows = sqlx::query(
+            "SELECT obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, seq FROM obstacle_observations \
+             WHERE mission_id = $1 AND seq > $2 AND seq <= $3 ORDER BY seq, t_us",
+        )
+        .bind(mission_id.to_string())
+        .bind(after_seq)
+        .bind(through_seq)
+        .fetch_all(&self.read)
+        .await?;
+        let mut out = rows
+            .iter()
+            .map(|r| Ok((r.try_get::<i64, _>(6)?, observation_row(r)?)))
+            .collect::<Result<Vec<_>, sqlx::Error>>()?;
+        out.sort_by(|(sa, a), (sb, b)| {
+            sa.cmp(sb)
+                .then_with(|| to_us(a.t_s).cmp(&to_us(b.t_s)))
+                .then_with(|| a.obstacle_id.as_bytes().cmp(b.obstacle_id.as_bytes()))
+        });
+        Ok(out)
+    }
+}

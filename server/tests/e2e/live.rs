@@ -1,0 +1,215 @@
+//! Live mission state (issue 9): plans read the same snapshot `GET .../obstacles` shows and
+//! list the obstacles they considered with their stages; clock mismatches are warned about,
+//! never a silent `exact`; replay rebuilds the snapshot from the store; two replicas on one
+//! PostgreSQL database agree.
+
+use std::time::Duration;
+
+use serde_json::{Value, json};
+
+use crate::both_stores;
+use crate::plans::plan;
+use crate::support::{App, Db, fixture};
+
+both_stores!(
+    a_plan_lists_the_obstacles_it_used_with_the_stages_the_operator_sees,
+    client_stamped_obstacles_with_receipt_stamped_telemetry_warn_of_the_clock_mismatch,
+    a_plan_replays_identically_after_later_batches_and_a_restart,
+);
+
+const T0: f64 = 1_700_000_000.0;
+
+/// The Webster mission with [`webster_flight_on`]'s traffic.
+async fn webster_flight(app: &App, secs: u32) -> String {
+    let id = app
+        .create_mission(&fixture("mission_2021_webster_field.json"))
+        .await;
+    webster_flight_on(app, &id, secs).await;
+    id
+}
+
+/// `(id, stage)` of the moving obstacles `GET .../obstacles` shows.
+async fn stages(app: &App, id: &str) -> Vec<(String, String)> {
+    app.get_json(&format!("/api/v1/missions/{id}/obstacles"))
+        .await
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|o| o["kind"] == "moving")
+        .map(|o| {
+            (
+                o["id"].as_str().unwrap().to_string(),
+                o["stage"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect()
+}
+
+async fn a_plan_lists_the_obstacles_it_used_with_the_stages_the_operator_sees(app: App) {
+    let id = webster_flight(&app, 6).await;
+    let p = plan(&app, &id, json!({"seed": 3, "current_index": 1})).await;
+    assert_eq!(p["warnings"], json!([]), "{p}");
+    assert_eq!(p["observation_seq"], 6);
+    assert_eq!(p["dynamic_risk"]["obstacles"], 2);
+    let used: Vec<(String, String)> = p["obstacles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| {
+            assert_eq!(o["considered"], true, "{o}");
+            (
+                o["id"].as_str().unwrap().to_string(),
+                o["stage"].as_str().unwrap().to_string(),
+            )
+        })
+        .collect();
+    let shown = stages(&app, &id).await;
+    assert_eq!(used, shown);
+    // Six seconds of 5 Hz data is past NoFly: the live state kept the whole history.
+    assert!(shown.iter().all(|(_, s)| s != "no_fly"), "{shown:?}");
+}
+
+async fn client_stamped_obstacles_with_receipt_stamped_telemetry_warn_of_the_clock_mismatch(
+    app: App,
+) {
+    let id = webster_flight(&app, 3).await;
+    // Interop 2018 form-encoded telemetry carries no time: stamped on receipt (now), years
+    // after the obstacles' client clock.
+    let r = app
+        .client
+        .post(app.url(&format!("/api/v1/missions/{id}/telemetry")))
+        .header("content-type", "application/x-www-form-urlencoded")
+        .body("latitude=38.1448&longitude=-76.4279&altitude_msl=200&uas_heading=46")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 202);
+    let p = plan(&app, &id, json!({"seed": 42, "current_index": 1})).await;
+    let codes: Vec<&str> = p["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["code"].as_str().unwrap())
+        .collect();
+    assert!(codes.contains(&"clock_mismatch"), "{p}");
+    assert!(codes.contains(&"obstacles_left_out"), "{p}");
+    let obstacles = p["obstacles"].as_array().unwrap();
+    assert_eq!(obstacles.len(), 2);
+    assert!(
+        obstacles
+            .iter()
+            .all(|o| o["considered"] == false && o["left_out"] == "stale")
+    );
+    assert_eq!(p["dynamic_risk"]["obstacles"], 0);
+    // The same obstacles are what the operator sees.
+    assert_eq!(stages(&app, &id).await.len(), 2);
+}
+
+async fn a_plan_replays_identically_after_later_batches_and_a_restart(mut app: App) {
+    let id = webster_flight(&app, 4).await;
+    let p = plan(&app, &id, json!({"seed": 11, "current_index": 1})).await;
+    let pid = p["plan_id"].as_str().unwrap().to_string();
+    // More observations after the plan (later and out of order) and a restart.
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/obstacles"),
+            &json!({"observations": [
+                {"obstacle_id": "0", "t": T0 + 9.0, "lat": 38.1456, "lon": -76.4250, "alt_msl_m": 60.0, "radius_m": 20.0},
+                {"obstacle_id": "2", "t": T0 + 1.0, "lat": 38.1460, "lon": -76.4270, "alt_msl_m": 60.0, "radius_m": 20.0}]}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    app.kill9_and_restart();
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/plans/{pid}/replay"),
+            &json!({}),
+        )
+        .await;
+    assert_eq!(r.status(), 200);
+    let v: Value = r.json().await.unwrap();
+    assert_eq!(v["identical"], true, "{v}");
+    assert_eq!(v["replayed"]["observation_seq"], 4);
+    // A new plan sees the later batch.
+    let q = plan(&app, &id, json!({"seed": 11, "current_index": 1})).await;
+    assert_eq!(q["observation_seq"], 5);
+    assert_eq!(q["obstacles"].as_array().unwrap().len(), 3);
+}
+
+/// Two `jink serve` on one PostgreSQL database: observations posted to A reach B's live
+/// state; the same seeded plan asked of both is the same plan.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_replicas_on_one_postgresql_plan_alike() {
+    let Some(a) = App::spawn(Db::Postgres).await else {
+        return;
+    };
+    let b = a.replica();
+    // B goes live on the mission before A's batches arrive, so only the notifications
+    // (or B's catch-up read) can bring them.
+    let id = a
+        .create_mission(&fixture("mission_2021_webster_field.json"))
+        .await;
+    assert_eq!(stages(&b, &id).await.len(), 0);
+    webster_flight_on(&a, &id, 6).await;
+    // Within a bounded delay B shows what A shows.
+    let want = stages(&a, &id).await;
+    assert_eq!(want.len(), 2);
+    let mut got = Vec::new();
+    for _ in 0..50 {
+        got = stages(&b, &id).await;
+        if got == want {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    assert_eq!(got, want);
+    let body = json!({"seed": 5, "current_index": 1});
+    let pa = plan(&a, &id, body.clone()).await;
+    let pb = plan(&b, &id, body).await;
+    for k in [
+        "outcome",
+        "waypoints",
+        "risk",
+        "obstacles",
+        "observation_seq",
+        "warnings",
+    ] {
+        assert_eq!(pa[k], pb[k], "{k} differs");
+    }
+    drop(b);
+}
+
+/// Posts `secs` seconds of two obstacles at 5 Hz from `T0` in 1 s batches, then telemetry
+/// (client clock) at the last observation.
+async fn webster_flight_on(app: &App, id: &str, secs: u32) {
+    for s in 0..secs {
+        let mut obs = Vec::new();
+        for k in 0..5 {
+            let t = T0 + f64::from(s) + 0.2 * f64::from(k);
+            let dt = t - T0;
+            obs.push(
+                json!({"obstacle_id": "0", "t": t, "lat": 38.1455, "lon": -76.4245 - 0.00005 * dt,
+                            "alt_msl_m": 60.0, "radius_m": 20.0}),
+            );
+            obs.push(
+                json!({"obstacle_id": "1", "t": t, "lat": 38.149 + 0.00003 * dt, "lon": -76.430,
+                            "alt_msl_m": 80.0, "radius_m": 15.0}),
+            );
+        }
+        let r = app
+            .post_json(
+                &format!("/api/v1/missions/{id}/obstacles"),
+                &json!({"observations": obs}),
+            )
+            .await;
+        assert_eq!(r.status(), 202);
+    }
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/telemetry"),
+            &json!({"t": T0 + f64::from(secs) - 0.2, "lat": 38.1446916666667, "lon": -76.4279944444445,
+                    "alt_msl_m": 60.96, "heading_deg": 60.0, "speed_mps": 20.0}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+}

@@ -1,0 +1,164 @@
+//! The README's "A walk-through with curl", step by step against the binary, with the
+//! answers the README promises. Keep the two in step: a README change that this test does
+//! not follow is a broken promise.
+
+use serde_json::{Value, json};
+
+use crate::both_stores;
+use crate::support::{App, fixture, fixture_text};
+
+both_stores!(the_readme_walk_through_does_what_it_says);
+
+async fn the_readme_walk_through_does_what_it_says(app: App) {
+    // 1. Upload the Webster Field mission (2021 protobuf-JSON, feet).
+    let r = app
+        .client
+        .post(app.url("/api/v1/missions"))
+        .header("content-type", "application/json")
+        .body(fixture_text("mission_2021_webster_field.json"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 201);
+    let m: Value = r.json().await.unwrap();
+    let id = m["id"].as_str().unwrap().to_string();
+    // 2. Read it back: 200 ft became 60.96 m, a cylinder's height became top_msl_m.
+    let m = app.get_json(&format!("/api/v1/missions/{id}")).await;
+    assert!(
+        (m["waypoints"][0]["alt_msl_m"].as_f64().unwrap() - 60.96).abs() < 1e-6,
+        "{m}"
+    );
+    assert!(m["stationary_obstacles"][0]["top_msl_m"].is_number());
+    // 3. An interop 2018 snapshot stamped with ?time=, twice; then a native batch.
+    let snap = fixture("obstacles_2018.json");
+    let path = format!("/api/v1/missions/{id}/obstacles?time=2026-06-14T15:00:00Z");
+    let r: Value = app.post_json(&path, &snap).await.json().await.unwrap();
+    assert_eq!(r, json!({"accepted": 2, "duplicate": 0}));
+    let r: Value = app.post_json(&path, &snap).await.json().await.unwrap();
+    assert_eq!(r, json!({"accepted": 0, "duplicate": 2}));
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/obstacles"),
+            &json!({"observations": [
+                {"obstacle_id": "7", "t": "2026-06-14T15:00:01Z", "lat": 38.1450, "lon": -76.4300, "alt_msl_m": 80, "radius_m": 15},
+                {"obstacle_id": "7", "t": "2026-06-14T15:00:00Z", "lat": 38.1449, "lon": -76.4301, "alt_msl_m": 80, "radius_m": 15}]}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    // 4. Native telemetry, then interop 2018 form-encoded (no time: stamped on receipt).
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/telemetry"),
+            &json!({"t": "2026-06-14T15:00:01Z", "lat": 38.1447, "lon": -76.4280, "alt_msl_m": 91.4, "heading_deg": 45, "speed_mps": 18}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    let r = app
+        .client
+        .post(app.url(&format!("/api/v1/missions/{id}/telemetry")))
+        .header("content-type", "application/x-www-form-urlencoded")
+        .body("latitude=38.1448&longitude=-76.4279&altitude_msl=300&uas_heading=46")
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 202);
+    // 5. What is stored, in time order.
+    let o = app
+        .get_json(&format!("/api/v1/missions/{id}/observations?obstacle_id=7"))
+        .await;
+    let o = o
+        .as_array()
+        .or_else(|| o["observations"].as_array())
+        .unwrap()
+        .clone();
+    assert_eq!(o.len(), 2);
+    let tel = app
+        .get_json(&format!("/api/v1/missions/{id}/telemetry?last=10"))
+        .await;
+    let tel = tel
+        .as_array()
+        .or_else(|| tel["telemetry"].as_array())
+        .unwrap()
+        .clone();
+    assert_eq!(tel.len(), 2);
+    // 6. Bad input: 422 problem naming the field.
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/obstacles"),
+            &json!({"observations": [{"obstacle_id": "7", "t": 5, "lat": 95, "lon": -76.43, "alt_msl_m": 80, "radius_m": 15}]}),
+        )
+        .await;
+    assert_eq!(r.status(), 422);
+    let p: Value = r.json().await.unwrap();
+    assert_eq!(p["type"], "urn:jink:problem:validation");
+    assert_eq!(p["errors"][0]["pointer"], "/observations/0/lat");
+    // 7. Obstacles with stages; the risk map 5 s ahead as a PNG.
+    let obs = app
+        .get_json(&format!("/api/v1/missions/{id}/obstacles"))
+        .await;
+    let moving: Vec<&str> = obs
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|o| o["kind"] == "moving")
+        .map(|o| o["id"].as_str().unwrap())
+        .collect();
+    assert_eq!(moving, ["0", "1", "7"]);
+    let r = app
+        .get(&format!("/api/v1/missions/{id}/risk?t=5&format=png"))
+        .await;
+    assert_eq!(r.status(), 200);
+    assert_eq!(&r.bytes().await.unwrap()[1..4], b"PNG");
+    // 8. The plan: receipt-stamped telemetry months after client-stamped obstacles.
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/plan"),
+            &json!({"seed": 42, "current_index": 1}),
+        )
+        .await;
+    assert_eq!(r.status(), 201);
+    let plan: Value = r.json().await.unwrap();
+    let codes: Vec<&str> = plan["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w["code"].as_str().unwrap())
+        .collect();
+    assert_eq!(codes, ["clock_mismatch", "obstacles_left_out"], "{plan}");
+    let listed: Vec<(&str, &Value, &Value)> = plan["obstacles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|o| (o["id"].as_str().unwrap(), &o["considered"], &o["left_out"]))
+        .collect();
+    assert_eq!(
+        listed,
+        [
+            ("0", &json!(false), &json!("stale")),
+            ("1", &json!(false), &json!("stale")),
+            ("7", &json!(false), &json!("stale"))
+        ]
+    );
+    assert_eq!(plan["outcome"], "exact");
+    let pid = plan["plan_id"].as_str().unwrap();
+    // 9. QGC WPL 110 download.
+    let r = app
+        .get(&format!("/api/v1/missions/{id}/plans/{pid}?format=qgc-wpl"))
+        .await;
+    assert_eq!(r.status(), 200);
+    assert!(r.text().await.unwrap().starts_with("QGC WPL 110"));
+    // 10. Planning from an older revision than the latest: 409.
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/plan"),
+            &json!({"base_revision": 0}),
+        )
+        .await;
+    assert_eq!(r.status(), 409);
+    let p: Value = r.json().await.unwrap();
+    assert_eq!(p["type"], "urn:jink:problem:conflict");
+    assert_eq!(
+        p["detail"],
+        "base_revision 0 is older than the latest revision 1: plan from revision 1"
+    );
+}
