@@ -125,7 +125,7 @@ impl MissionLive {
     /// Brings the writer up to batch `target` (the store's newest when `None`) with one
     /// read of the missing batches. Returns false when the mission no longer exists.
     async fn catch_up(&self, state: &AppState, target: Option<i64>) -> Result<bool, ApiError> {
-        let mut w = self.writer.clone().lock_owned().await;
+        // Read the target before taking the writer lock: ingest never waits on this read.
         let target = match target {
             Some(t) => t,
             None => match state.store.observation_seq(&self.mission.id).await? {
@@ -133,6 +133,10 @@ impl MissionLive {
                 None => return Ok(false),
             },
         };
+        if self.loaded.load(Ordering::Acquire) && self.applied.load(Ordering::Acquire) >= target {
+            return Ok(true);
+        }
+        let mut w = self.writer.clone().lock_owned().await;
         if w.applied < target {
             let rows: Vec<ObservationRow> = state
                 .store

@@ -168,3 +168,100 @@ pub fn fresh_ids(predictor: &Predictor, since_t_s: f64) -> Vec<String> {
         .map(|o| o.id)
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn webster() -> Mission {
+        let text = include_str!("../../../tests/fixtures/interop/mission_2021_webster_field.json");
+        wire::domain::read_mission_text(text, "webster").expect("fixture")
+    }
+
+    /// Three obstacles over 20 s at 5 Hz, one batch per 0.2 s tick, one obstacle's rows
+    /// arriving a tick late (out of order).
+    fn batches() -> Vec<Vec<ObservationRow>> {
+        (0..100)
+            .map(|i| {
+                let mut b: Vec<ObservationRow> = (0..3)
+                    .map(|k| {
+                        let t = 1_700_000_000.0
+                            + 0.2 * f64::from(if k == 2 { i.max(1) - 1 } else { i });
+                        let a = 0.05 * (t - 1_700_000_000.0) + f64::from(k);
+                        ObservationRow {
+                            obstacle_id: k.to_string(),
+                            t_s: t,
+                            lat_deg: 38.145 + 0.002 * a.sin(),
+                            lon_deg: -76.429 + 0.0025 * a.cos(),
+                            alt_msl_m: 60.0,
+                            radius_m: 20.0,
+                        }
+                    })
+                    .collect();
+                crate::store::observations::sort_feeding_order(&mut b);
+                b
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_snapshot_fed_batch_by_batch_equals_one_rebuilt_from_all_rows() {
+        let m = webster();
+        let frame = m.frame();
+        // Live: batches fed one at a time, a snapshot taken (and so a predictor copy
+        // forced) after each.
+        let mut live = Arc::new(Predictor::new(predictor_config()));
+        let mut snap = Snapshot::empty(&m);
+        let all = batches();
+        for (seq, b) in all.iter().enumerate() {
+            feed(Arc::make_mut(&mut live), &frame, b);
+            snap = Snapshot::build(&m, seq as i64 + 1, live.clone());
+        }
+        // Replay: every row in one pass, in feeding order.
+        let rows: Vec<ObservationRow> = all.concat();
+        let mut p = Predictor::new(predictor_config());
+        feed(&mut p, &frame, &rows);
+        let rebuilt = Snapshot::build(&m, all.len() as i64, Arc::new(p));
+        assert_eq!(snap.anchor_t_s, rebuilt.anchor_t_s);
+        assert_eq!(snap.map_ids, ["0", "1", "2"]);
+        assert_eq!(snap.map_ids, rebuilt.map_ids);
+        let (a, b) = (snap.map.expect("map"), rebuilt.map.expect("map"));
+        let t0 = snap.anchor_t_s.expect("anchor");
+        let mut nonzero = 0;
+        for k in 0..60 {
+            let (sa, sb) = (a.slice(t0 + f64::from(k)), b.slice(t0 + f64::from(k)));
+            assert_eq!(sa.data, sb.data, "slice {k}");
+            nonzero += sa.data.iter().filter(|v| **v > 0.0).count();
+        }
+        assert!(nonzero > 0, "the map holds the obstacles");
+        let stages = |p: &Predictor| {
+            p.obstacles()
+                .map(|o| (o.id, o.stage, o.stage_history))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(stages(&snap.predictor), stages(&rebuilt.predictor));
+    }
+
+    #[test]
+    fn an_obstacle_silent_for_longer_than_the_horizon_is_left_out_of_the_live_map() {
+        let m = webster();
+        let mut p = Predictor::new(predictor_config());
+        let mut rows = batches().concat();
+        // Obstacle "9" seen once, 61 s before the newest observation.
+        rows.insert(
+            0,
+            ObservationRow {
+                obstacle_id: "9".into(),
+                t_s: 1_700_000_000.0 + 19.8 - STALE_AFTER_S - 1.0,
+                lat_deg: 38.145,
+                lon_deg: -76.429,
+                alt_msl_m: 60.0,
+                radius_m: 20.0,
+            },
+        );
+        feed(&mut p, &m.frame(), &rows);
+        let s = Snapshot::build(&m, 1, Arc::new(p));
+        assert_eq!(s.map_ids, ["0", "1", "2"]);
+        assert_eq!(s.predictor.obstacles().count(), 4);
+    }
+}
