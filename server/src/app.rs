@@ -10,6 +10,7 @@ use axum::http::StatusCode;
 use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
 use tokio::sync::Semaphore;
+use tower_http::catch_panic::CatchPanicLayer;
 use tower_http::trace::TraceLayer;
 
 use crate::error::{ApiError, InternalCause};
@@ -89,11 +90,21 @@ pub fn router(state: AppState) -> Router {
     let docs: Router = utoipa_swagger_ui::SwaggerUi::new("/docs")
         .url("/docs/openapi.json", openapi)
         .into();
-    api.fallback(no_such_route)
+    let routes = api
+        .fallback(no_such_route)
         .method_not_allowed_fallback(method_not_allowed)
         .layer(DefaultBodyLimit::max(max_body))
         .with_state(state.clone())
-        .merge(docs)
+        .merge(docs);
+    with_middleware(routes, state)
+}
+
+/// Wraps `routes` in the service middleware, innermost first: a panic in a handler becomes
+/// a 500 problem+json (its message logged by `observe`, never returned), then metrics and
+/// the request log, then the tracing span.
+fn with_middleware(routes: Router, state: AppState) -> Router {
+    routes
+        .layer(CatchPanicLayer::custom(panic_response))
         .layer(middleware::from_fn_with_state(state, observe))
         .layer(TraceLayer::new_for_http().make_span_with(|req: &Request| {
             let route = req
@@ -102,6 +113,17 @@ pub fn router(state: AppState) -> Router {
                 .map_or("-", MatchedPath::as_str);
             tracing::info_span!("request", method = %req.method(), path = %req.uri().path(), route)
         }))
+}
+
+/// The answer to a request whose handler panicked: a 500 problem document whose hidden
+/// cause (the panic message) the logging middleware logs.
+fn panic_response(payload: Box<dyn std::any::Any + Send + 'static>) -> Response {
+    let message = payload
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| payload.downcast_ref::<&str>().copied())
+        .unwrap_or("a panic with a non-string payload");
+    ApiError::Internal(format!("panic: {message}")).into_response()
 }
 
 async fn no_such_route(req: Request) -> ApiError {
@@ -195,4 +217,61 @@ pub fn problem(status: StatusCode, detail: &str) -> Response {
         detail: detail.to_string(),
     }
     .into_response()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use axum::body::Body;
+    use axum::routing::get;
+    use tower::ServiceExt;
+
+    async fn state() -> (AppState, tempfile::TempDir) {
+        let dir = tempfile::tempdir().unwrap();
+        let url = format!("sqlite://{}", dir.path().join("t.sqlite").display());
+        let store = Store::open(&url).await.unwrap();
+        (AppState::new(store, Settings::default()), dir)
+    }
+
+    #[tokio::test]
+    async fn a_panicking_handler_answers_500_problem_json_without_its_message() {
+        let (state, _dir) = state().await;
+        let routes = Router::new().route(
+            "/boom",
+            get(|| async {
+                let secret = "the secret cause";
+                if !secret.is_empty() {
+                    panic!("{secret}");
+                }
+                "unreachable"
+            }),
+        );
+        let app = with_middleware(routes, state.clone());
+        let resp = app
+            .oneshot(Request::get("/boom").body(Body::empty()).unwrap())
+            .await
+            .unwrap();
+        assert_eq!(resp.status(), StatusCode::INTERNAL_SERVER_ERROR);
+        assert_eq!(
+            resp.headers()[axum::http::header::CONTENT_TYPE],
+            crate::error::PROBLEM_JSON
+        );
+        // The cause travels to the logging middleware in the response extensions.
+        let cause = resp.extensions().get::<InternalCause>().cloned();
+        assert_eq!(
+            cause.map(|c| c.0).as_deref(),
+            Some("panic: the secret cause")
+        );
+        let body = axum::body::to_bytes(resp.into_body(), 1 << 16).await.unwrap();
+        let problem: serde_json::Value = serde_json::from_slice(&body).unwrap();
+        assert_eq!(problem["status"], 500);
+        assert_eq!(problem["type"], "urn:jink:problem:internal");
+        assert!(!String::from_utf8_lossy(&body).contains("secret"));
+        // ... and the panic was counted as a 500 by the metrics.
+        let text = state.metrics.render();
+        assert!(
+            text.contains(r#"route="/boom",method="GET",status="500""#),
+            "metrics do not show the 500:\n{text}"
+        );
+    }
 }
