@@ -86,9 +86,9 @@ impl AppState {
 /// middleware.
 pub fn router(state: AppState) -> Router {
     let max_body = state.settings.max_body_bytes;
-    let (api, openapi) = crate::api::router().split_for_parts();
+    let api: Router<AppState> = crate::api::router().into();
     let docs: Router = utoipa_swagger_ui::SwaggerUi::new("/docs")
-        .url("/docs/openapi.json", openapi)
+        .url("/docs/openapi.json", crate::api::openapi())
         .into();
     let routes = api
         .fallback(no_such_route)
@@ -262,7 +262,9 @@ mod tests {
             cause.map(|c| c.0).as_deref(),
             Some("panic: the secret cause")
         );
-        let body = axum::body::to_bytes(resp.into_body(), 1 << 16).await.unwrap();
+        let body = axum::body::to_bytes(resp.into_body(), 1 << 16)
+            .await
+            .unwrap();
         let problem: serde_json::Value = serde_json::from_slice(&body).unwrap();
         assert_eq!(problem["status"], 500);
         assert_eq!(problem["type"], "urn:jink:problem:internal");

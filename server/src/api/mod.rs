@@ -9,6 +9,7 @@ use utoipa_axum::router::OpenApiRouter;
 use crate::app::AppState;
 
 pub mod avoid;
+pub mod doc;
 pub mod health;
 pub mod missions;
 pub mod operator;
@@ -29,6 +30,7 @@ risk maps, avoidance plans and exports. Errors are RFC 9457 application/problem+
         license(name = "MIT OR Apache-2.0", identifier = "MIT OR Apache-2.0"),
         version = "1"
     ),
+    components(schemas(plans::PlanFormat, risk::RiskFormat)),
     tags(
         (name = "missions", description = "Mission upload and retrieval"),
         (name = "telemetry", description = "Obstacle observations and aircraft telemetry"),
@@ -55,9 +57,12 @@ pub fn router() -> OpenApiRouter<AppState> {
     // jink:routes -- register each new API module above this line with `.merge(module::router())`
 }
 
-/// The OpenAPI document as the code describes it.
+/// The OpenAPI document as the code describes it, completed by [`doc::complete`].
 pub fn openapi() -> utoipa::openapi::OpenApi {
-    router().into_openapi()
+    let mut value =
+        serde_json::to_value(router().into_openapi()).expect("the OpenAPI document serializes");
+    doc::complete(&mut value);
+    serde_json::from_value(value).expect("the completed OpenAPI document deserializes")
 }
 
 /// The OpenAPI document as pretty JSON with a trailing newline (what
