@@ -13,6 +13,7 @@ pub mod doc;
 pub mod health;
 pub mod missions;
 pub mod operator;
+pub mod plan_files;
 pub mod plan_record;
 pub mod plans;
 pub mod reactive;
@@ -52,6 +53,7 @@ pub fn router() -> OpenApiRouter<AppState> {
         .merge(operator::router())
         .merge(reactive::router())
         .merge(plans::router())
+        .merge(plan_files::router())
         .merge(avoid::router())
         .merge(risk::router())
     // jink:routes -- register each new API module above this line with `.merge(module::router())`

@@ -833,12 +833,14 @@ pub fn stack_start(
     }
 }
 
-/// One stored plan, as JSON or as a ground-station file.
+/// One stored plan as JSON. `?format=qgc-wpl` / `qgc-plan` answers 303 to the plan's file
+/// download (`.../qgc-wpl`, `.../qgc-plan`), kept for older clients.
 #[utoipa::path(get, path = "/api/v1/missions/{id}/plans/{plan_id}", tag = "plans",
     params(("id" = String, Path, description = "Mission id"), ("plan_id" = String, Path, description = "Plan id"), GetParams),
     responses(
-        (status = 200, description = "The plan (JSON), or a QGC WPL 110 text file (`text/plain`), or a QGroundControl `.plan` file",
-            content((PlanOut = "application/json"), (String = "text/plain"))),
+        (status = 200, description = "The plan", body = PlanOut),
+        (status = 303, description = "`format=qgc-wpl` or `qgc-plan`: `Location` names the file download",
+            headers(("Location" = String, description = "URL of the file download"))),
         (status = 400, description = "Unknown format", body = Problem, content_type = "application/problem+json"),
         (status = 404, description = "No such mission or plan", body = Problem, content_type = "application/problem+json"),
     ))]
@@ -847,13 +849,48 @@ async fn get_plan(
     Path((id, plan_id)): Path<(String, String)>,
     ApiQuery(q): ApiQuery<GetParams>,
 ) -> Result<Response, ApiError> {
-    let mission = super::missions::load(&state, &id).await?;
+    let fmt = q.format.unwrap_or(PlanFormat::Json);
+    if !matches!(fmt, PlanFormat::Json) {
+        // Only stored ids (plain ASCII) reach the Location header.
+        super::missions::load(&state, &id).await?;
+        state
+            .store
+            .get_plan(&id, &plan_id)
+            .await?
+            .ok_or_else(|| ApiError::not_found("plan", plan_id.clone()))?;
+        let file = if matches!(fmt, PlanFormat::QgcWpl) {
+            "qgc-wpl"
+        } else {
+            "qgc-plan"
+        };
+        let location = format!("/api/v1/missions/{id}/plans/{plan_id}/{file}");
+        let mut resp = StatusCode::SEE_OTHER.into_response();
+        resp.headers_mut().insert(
+            header::LOCATION,
+            HeaderValue::from_str(&location).map_err(|e| ApiError::Internal(e.to_string()))?,
+        );
+        return Ok(resp);
+    }
+    plan_file(&state, &id, &plan_id, fmt).await
+}
+
+/// A stored plan in format `fmt`: the stored JSON, a QGC WPL 110 text file or a
+/// QGroundControl `.plan` file (as an attachment).
+///
+/// # Errors
+/// 404 when the mission or the plan does not exist.
+pub(crate) async fn plan_file(
+    state: &AppState,
+    id: &str,
+    plan_id: &str,
+    fmt: PlanFormat,
+) -> Result<Response, ApiError> {
+    let mission = super::missions::load(state, id).await?;
     let row = state
         .store
-        .get_plan(&id, &plan_id)
+        .get_plan(id, plan_id)
         .await?
         .ok_or_else(|| ApiError::not_found("plan", plan_id))?;
-    let fmt = q.format.unwrap_or(PlanFormat::Json);
     let out = stored_plan_out(&row)?;
     if matches!(fmt, PlanFormat::Json) {
         return Ok(axum::Json(out).into_response());

@@ -147,7 +147,7 @@ async fn a_plan_downloads_as_json_qgc_wpl_and_qgc_plan(app: App) {
     assert_eq!(app.get_json(&base).await, p);
     assert_eq!(app.get_json(&format!("{base}?format=json")).await, p);
 
-    let r = app.get(&format!("{base}?format=qgc-wpl")).await;
+    let r = app.get(&format!("{base}/qgc-wpl")).await;
     assert_eq!(r.status(), 200);
     assert!(
         r.headers()["content-type"]
@@ -165,8 +165,12 @@ async fn a_plan_downloads_as_json_qgc_wpl_and_qgc_plan(app: App) {
         lines[1]
     );
     assert!(lines.iter().skip(1).all(|l| l.split('\t').count() == 12));
+    // The older `?format=` form answers 303 to the same download (reqwest follows it).
+    let old = app.get(&format!("{base}?format=qgc-wpl")).await;
+    assert_eq!(old.url().path(), format!("{base}/qgc-wpl"));
+    assert_eq!(old.text().await.unwrap(), text);
 
-    let r = app.get(&format!("{base}?format=qgc-plan")).await;
+    let r = app.get(&format!("{base}/qgc-plan")).await;
     assert_eq!(r.status(), 200);
     let v: Value = r.json().await.unwrap();
     assert_eq!(v["fileType"], "Plan");
