@@ -113,12 +113,24 @@ impl TurnSampler {
         let removed = before - self.samples.len();
         let mut k = self.next_k.map_or(k_start, |n| n.min(k_bad)).max(k_start);
         let mut n = 0;
-        while (k + 1) as f64 * dt <= last.t_s {
+        while k < i64::MAX && (k as f64 + 1.0) * dt <= last.t_s {
             if let Some(s) = sample_interval(track, k, cfg) {
                 self.samples.push(s);
                 n += 1;
+                k += 1;
+                continue;
             }
-            k += 1;
+            // No interval that starts strictly inside a gap longer than `max_gap_s` has a
+            // sample (its start has no position): jump over the gap in one step instead of
+            // one interval at a time (a gap of years is hundreds of millions of intervals).
+            let t0 = k as f64 * dt;
+            let j = obs.partition_point(|o| o.t_s <= t0);
+            let resume = if j > 0 && j < obs.len() && obs[j].t_s - obs[j - 1].t_s > cfg.max_gap_s {
+                (obs[j].t_s / dt).ceil() as i64
+            } else {
+                k
+            };
+            k = resume.max(k.saturating_add(1));
         }
         self.next_k = Some(k);
         n + removed
@@ -416,5 +428,46 @@ mod tests {
             c.reverse();
         }
         assert_eq!(run(&in_order), run(&shuffled));
+    }
+
+    #[test]
+    fn a_gap_of_years_is_skipped_with_the_samples_either_side_kept() {
+        // 10 s of a straight track, ~11.7 years of silence, 10 s more. Walking the gap one
+        // 1 s interval at a time took minutes (a request stalled on it); the samples are
+        // the two stretches' own.
+        let cfg = EstimatorConfig::default();
+        let stretch = |t0: f64| -> Vec<Observation> {
+            (0..=100)
+                .map(|i| {
+                    let t = t0 + f64::from(i) * 0.1;
+                    Observation {
+                        t_s: t,
+                        p_m: [10.0 * (t - t0), 0.0],
+                        alt_m: 0.0,
+                        radius_m: 5.0,
+                    }
+                })
+                .collect()
+        };
+        let run = |obs: &[Observation]| {
+            let mut tr = Track::default();
+            let mut ts = TurnSampler::default();
+            for o in obs {
+                if let (_, Some(idx)) = tr.insert(*o, 1e9, 0.0) {
+                    ts.update(&tr, idx, &cfg);
+                }
+            }
+            ts.samples().to_vec()
+        };
+        let far = 368_445_877.0;
+        let mut both = stretch(0.0);
+        both.extend(stretch(far));
+        let samples = run(&both);
+        let (a, b) = (run(&stretch(0.0)), run(&stretch(far)));
+        assert_eq!(a.len(), 10);
+        assert_eq!(b.len(), 10);
+        let mut expected = a;
+        expected.extend(b);
+        assert_eq!(samples, expected);
     }
 }

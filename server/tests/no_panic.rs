@@ -110,13 +110,18 @@ async fn send(
 /// Sends one request and fails the property on any 5xx (a caught panic is a 500).
 fn check(method: Method, uri: &str, body: Vec<u8>) -> Result<u16, TestCaseError> {
     let f = fixture();
-    let (status, bytes) = f.rt.block_on(send(
-        &f.app,
-        method.clone(),
-        uri,
-        Some("application/json"),
-        body,
-    ));
+    // A request that never ends is as bad as a panic (a gap of years in an obstacle's
+    // track once walked hundreds of millions of 1 s intervals): fail it after a bound far
+    // above any legitimate answer.
+    let answer = f.rt.block_on(async {
+        tokio::time::timeout(
+            std::time::Duration::from_secs(60),
+            send(&f.app, method.clone(), uri, Some("application/json"), body),
+        )
+        .await
+    });
+    prop_assert!(answer.is_ok(), "{method} {uri} did not answer within 60 s");
+    let (status, bytes) = answer.unwrap_or_default();
     prop_assert!(
         status < 500,
         "{method} {uri} answered {status}: {}",

@@ -15,11 +15,13 @@ sys.path.insert(0, generated)
 
 from jink_client import Client  # noqa: E402
 from jink_client.api.missions import create_mission, get_mission  # noqa: E402
-from jink_client.api.plans import create_plan, get_plan  # noqa: E402
+from jink_client.api.plans import create_plan, get_plan, get_plan_qgc, get_plan_wpl  # noqa: E402
 from jink_client.api.prediction import get_risk, list_obstacles  # noqa: E402
 from jink_client.api.telemetry import post_obstacles, post_telemetry  # noqa: E402
 from jink_client.models import (  # noqa: E402
     AircraftTelemetry,
+    FormatParam,
+    Interop2019Mission,
     Mission,
     MissionInput,
     ObservationBatch,
@@ -62,6 +64,13 @@ mid = mission.id
 again = step("read it back", get_mission.sync_detailed(mid, client=client), 200, Mission)
 assert again.home.lat == 38.0 and len(again.waypoints) == 2, again
 
+webster = json.loads((ROOT / "tests/fixtures/interop/mission_2021_webster_field.json").read_text())
+interop = step("upload the 2021 interop mission",
+               create_mission.sync_detailed(client=client, body=Interop2019Mission.from_dict(webster),
+                                            format_=FormatParam.INTEROP_2019),
+               201, Mission)
+assert interop.source_format.value == "interop-2019" and len(interop.fly_zones[0].boundary) == 12, interop
+
 obs = ObservationBatch(observations=[
     ObservationIn(obstacle_id="intruder", t=1_700_000_000.0 + i, lat=38.004 + 0.0001 * i,
                   lon=-75.996, alt_msl_m=100.0, radius_m=20.0)
@@ -79,6 +88,14 @@ plan = step("plan", create_plan.sync_detailed(mid, client=client, body=PlanBody(
 assert plan.seed == 7 and plan.revision == 1, plan
 fetched = step("get the plan as JSON", get_plan.sync_detailed(mid, plan.plan_id, client=client), 200, PlanOut)
 assert fetched.plan_id == plan.plan_id
+
+wpl = step("download the plan as QGC WPL", get_plan_wpl.sync_detailed(mid, plan.plan_id, client=client), 200, str)
+lines = wpl.splitlines()
+assert lines[0] == "QGC WPL 110" and len(lines) == 2 + len(plan.waypoints), lines[:3]
+qgc = step("download the plan as a QGroundControl .plan",
+           get_plan_qgc.sync_detailed(mid, plan.plan_id, client=client), 200, object)
+qgc = qgc.to_dict()
+assert qgc["fileType"] == "Plan" and len(qgc["mission"]["items"]) == len(plan.waypoints), qgc
 
 risk = step("read the risk map", get_risk.sync_detailed(mid, client=client, t=10.0), 200, RiskSliceOut)
 assert len(risk.values) == risk.width * risk.height > 0, (risk.width, risk.height)

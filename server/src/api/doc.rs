@@ -9,7 +9,11 @@
 //! - `Mission` is one flat object (openapi-python-client cannot merge the `allOf` of the
 //!   derived schema, whose `home` is optional in the input and required in the output);
 //! - `WireTime` is typed: an RFC 3339 string or Unix seconds;
-//! - `POST /api/v1/missions` links to every mission-scoped operation by the created id.
+//! - `POST /api/v1/missions` links to every mission-scoped operation by the created id;
+//! - its request body is a `oneOf` naming each accepted format: native, interop 2017/2018
+//!   (one mission or the `GET /api/missions` list) and interop 2019+ protobuf-JSON. The
+//!   interop schemas describe the judges' documents (feet, knots) and allow extra members,
+//!   as the adapters ignore the parts jink does not use.
 
 use serde_json::{Map, Value, json};
 
@@ -18,6 +22,7 @@ use crate::error::PROBLEM_JSON;
 /// Applies every completion to `doc` (the document as JSON).
 pub fn complete(doc: &mut Value) {
     flatten_mission(doc);
+    describe_mission_formats(doc);
     type_wire_time(doc);
     add_error_statuses(doc);
     add_mission_links(doc);
@@ -140,5 +145,95 @@ fn add_mission_links(doc: &mut Value) {
     let created = &mut doc["paths"]["/api/v1/missions"]["post"]["responses"]["201"];
     if created.is_object() && !links.is_empty() {
         created["links"] = Value::Object(links);
+    }
+}
+
+fn latlon(lat: &str, lon: &str, extra: &[(&str, Value)]) -> Value {
+    let mut props = Map::new();
+    props.insert(lat.into(), json!({"type": "number", "minimum": -90, "maximum": 90, "description": "Latitude, degrees"}));
+    props.insert(lon.into(), json!({"type": "number", "minimum": -180, "maximum": 180, "description": "Longitude, degrees"}));
+    let mut required = vec![json!(lat), json!(lon)];
+    for (k, v) in extra {
+        props.insert((*k).into(), v.clone());
+        required.push(json!(k));
+    }
+    json!({"type": "object", "required": required, "properties": props})
+}
+
+/// The interop mission schemas and the `oneOf` body of `POST /api/v1/missions`.
+fn describe_mission_formats(doc: &mut Value) {
+    let feet = |what: &str| json!({"type": "number", "description": format!("{what}, feet MSL")});
+    let interop_2018 = json!({
+        "type": "object",
+        "title": "Interop2018Mission",
+        "description": "Format `interop-2018`: an interop server 2017/2018 mission (`GET /api/missions/{id}`), feet.",
+        "required": ["fly_zones", "mission_waypoints"],
+        "properties": {
+            "id": {"type": "integer"},
+            "active": {"type": "boolean"},
+            "home_pos": latlon("latitude", "longitude", &[]),
+            "fly_zones": {"type": "array", "minItems": 1, "items": {
+                "type": "object",
+                "required": ["boundary_pts", "altitude_msl_min", "altitude_msl_max"],
+                "properties": {
+                    "boundary_pts": {"type": "array", "minItems": 3, "items": latlon("latitude", "longitude", &[("order", json!({"type": "integer"}))])},
+                    "altitude_msl_min": feet("Floor"),
+                    "altitude_msl_max": feet("Ceiling"),
+                }
+            }},
+            "mission_waypoints": {"type": "array", "items": latlon("latitude", "longitude", &[
+                ("altitude_msl", feet("Altitude")), ("order", json!({"type": "integer"}))
+            ])},
+        },
+        "additionalProperties": true,
+    });
+    let interop_2019 = json!({
+        "type": "object",
+        "title": "Interop2019Mission",
+        "description": "Format `interop-2019`: an interop server 2019+ protobuf-JSON mission (camelCase; snake_case keys are accepted too), feet.",
+        "required": ["id", "flyZones"],
+        "properties": {
+            "id": {"type": "integer"},
+            "flyZones": {"type": "array", "minItems": 1, "items": {
+                "type": "object",
+                "required": ["boundaryPoints", "altitudeMin", "altitudeMax"],
+                "properties": {
+                    "boundaryPoints": {"type": "array", "minItems": 3, "items": latlon("latitude", "longitude", &[])},
+                    "altitudeMin": feet("Floor"),
+                    "altitudeMax": feet("Ceiling"),
+                }
+            }},
+            "waypoints": {"type": "array", "items": latlon("latitude", "longitude", &[("altitude", feet("Altitude"))])},
+            "stationaryObstacles": {"type": "array", "items": latlon("latitude", "longitude", &[
+                ("radius", json!({"type": "number", "exclusiveMinimum": 0, "description": "Radius, feet"})),
+                ("height", feet("Top")),
+            ])},
+        },
+        "additionalProperties": true,
+    });
+    let schemas = &mut doc["components"]["schemas"];
+    if !schemas.is_object() {
+        return;
+    }
+    schemas["Interop2018Mission"] = interop_2018;
+    schemas["Interop2019Mission"] = interop_2019;
+    schemas["Interop2018MissionList"] = json!({
+        "type": "array",
+        "title": "Interop2018MissionList",
+        "description": "Format `interop-2018`: the 2018 `GET /api/missions` list; every mission in it is created, all or none.",
+        "minItems": 1,
+        "items": {"$ref": "#/components/schemas/Interop2018Mission"},
+    });
+    let body = &mut doc["paths"]["/api/v1/missions"]["post"]["requestBody"];
+    if body.is_object() {
+        body["description"] = json!(
+            "A mission in one of the accepted formats, detected unless `?format=` names it: `native` (MissionInput), `interop-2018` (one mission or the list) or `interop-2019`"
+        );
+        body["content"]["application/json"]["schema"] = json!({"oneOf": [
+            {"$ref": "#/components/schemas/MissionInput"},
+            {"$ref": "#/components/schemas/Interop2018Mission"},
+            {"$ref": "#/components/schemas/Interop2018MissionList"},
+            {"$ref": "#/components/schemas/Interop2019Mission"},
+        ]});
     }
 }
