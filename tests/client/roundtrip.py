@@ -20,7 +20,7 @@ from jink_client.api.prediction import get_risk, list_obstacles  # noqa: E402
 from jink_client.api.telemetry import post_obstacles, post_telemetry  # noqa: E402
 from jink_client.models import (  # noqa: E402
     AircraftTelemetry,
-    FormatParam,
+    SourceFormat,
     Interop2019Mission,
     Mission,
     MissionInput,
@@ -67,7 +67,7 @@ assert again.home.lat == 38.0 and len(again.waypoints) == 2, again
 webster = json.loads((ROOT / "tests/fixtures/interop/mission_2021_webster_field.json").read_text())
 interop = step("upload the 2021 interop mission",
                create_mission.sync_detailed(client=client, body=Interop2019Mission.from_dict(webster),
-                                            format_=FormatParam.INTEROP_2019),
+                                            format_=SourceFormat.INTEROP_2019),
                201, Mission)
 assert interop.source_format.value == "interop-2019" and len(interop.fly_zones[0].boundary) == 12, interop
 
