@@ -69,7 +69,7 @@ pub fn read_mission_text(text: &str, id: &str) -> Result<Mission, String> {
     })?;
     let (content, home) = read.missions.into_iter().next().ok_or("no mission")?;
     Ok(Mission {
-        id: id.to_string(),
+        id: id.into(),
         source_format: read.format,
         created_at: String::new(),
         home,

@@ -8,6 +8,7 @@
 //! - [`domain`]: JSON text or value -> detected format -> parsed -> validated mission, and
 //!   its conversion into the planner's ENU domain types (`planner::Mission`);
 //! - [`coords`]: the one latitude/longitude validator;
+//! - [`ids`]: typed ids (`MissionId`, `PlanId`, `ObstacleId`);
 //! - [`time`]: wire timestamps (RFC 3339 or Unix seconds);
 //! - [`geodesy`]: WGS84 <-> local East-North-Up metres;
 //! - [`error`]: field errors with JSON pointers into the document as the client sent it.
@@ -18,6 +19,7 @@ pub mod coords;
 pub mod domain;
 pub mod error;
 pub mod geodesy;
+pub mod ids;
 pub mod interop;
 pub mod mission;
 pub mod time;

@@ -156,7 +156,7 @@ pub struct MissionInput {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Mission {
     /// The mission id.
-    pub id: String,
+    pub id: crate::ids::MissionId,
     /// The upload format it came in.
     pub source_format: SourceFormat,
     /// When it was stored (RFC 3339).

@@ -55,7 +55,7 @@ async fn create_mission(
         .missions
         .into_iter()
         .map(|(content, home)| Mission {
-            id: new_mission_id(),
+            id: new_mission_id().into(),
             source_format: format,
             created_at: format_rfc3339(now),
             home,

@@ -35,6 +35,7 @@ use crate::error::ApiError;
 use crate::mission::Mission;
 use crate::store::observations::StoredBatch;
 use crate::store::{Backend, ObservationRow};
+use wire::ids::MissionId;
 
 pub mod notify;
 pub mod plan_view;
@@ -199,7 +200,7 @@ impl MissionLive {
         if (!self.loaded.load(Ordering::Acquire) || state.store.backend() == Backend::Postgres)
             && !self.catch_up(state, None).await?
         {
-            return Err(ApiError::not_found("mission", &self.mission.id));
+            return Err(ApiError::not_found("mission", self.mission.id.as_str()));
         }
         let cur = self.published();
         if cur.seq >= self.applied.load(Ordering::Acquire) {
@@ -229,7 +230,7 @@ impl MissionLive {
 #[derive(Debug)]
 pub struct LiveStates {
     cfg: LiveConfig,
-    missions: Mutex<HashMap<String, Arc<MissionLive>>>,
+    missions: Mutex<HashMap<MissionId, Arc<MissionLive>>>,
     last_sweep: Mutex<Instant>,
 }
 

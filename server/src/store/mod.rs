@@ -226,7 +226,7 @@ impl Store {
         for m in missions {
             let body = serde_json::to_string(m).map_err(|e| sqlx::Error::Encode(Box::new(e)))?;
             sqlx::query("INSERT INTO missions (id, created_at_us, source_format, body) VALUES ($1, $2, $3, $4)")
-                .bind(m.id.clone())
+                .bind(m.id.0.clone())
                 .bind(to_us(created_at_s))
                 .bind(m.source_format.as_str())
                 .bind(body)
