@@ -238,7 +238,7 @@ impl Mission2018 {
                 .iter()
                 .enumerate()
                 .map(|(i, c)| StationaryObstacle {
-                    id: i.to_string(),
+                    id: i.to_string().into(),
                     lat: c.latitude,
                     lon: c.longitude,
                     radius_m: ft(c.cylinder_radius),
@@ -250,7 +250,7 @@ impl Mission2018 {
                 .iter()
                 .enumerate()
                 .map(|(i, o)| MovingObstacleInfo {
-                    id: i.to_string(),
+                    id: i.to_string().into(),
                     radius_m: ft(o.sphere_radius),
                     speed_avg_mps: o.speed_avg.map(|kt| kt * MPS_PER_KT),
                 })
@@ -375,7 +375,7 @@ impl Mission2019 {
                 .iter()
                 .enumerate()
                 .map(|(i, c)| StationaryObstacle {
-                    id: i.to_string(),
+                    id: i.to_string().into(),
                     lat: c.latitude,
                     lon: c.longitude,
                     radius_m: ft(c.radius),

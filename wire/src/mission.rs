@@ -69,7 +69,8 @@ pub struct Waypoint {
 pub struct StationaryObstacle {
     /// The obstacle's id (its index in the mission when not given).
     #[serde(default)]
-    pub id: String,
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
+    pub id: crate::ids::ObstacleId,
     /// Centre latitude, degrees.
     #[cfg_attr(feature = "openapi", schema(minimum = -90.0, maximum = 90.0))]
     pub lat: f64,
@@ -87,7 +88,8 @@ pub struct StationaryObstacle {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct MovingObstacleInfo {
     /// The obstacle id telemetry will use (its index in the list).
-    pub id: String,
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
+    pub id: crate::ids::ObstacleId,
     /// Sphere radius, metres.
     pub radius_m: f64,
     /// Average speed, m/s, when the judges published it.
@@ -156,6 +158,7 @@ pub struct MissionInput {
 #[cfg_attr(feature = "openapi", derive(utoipa::ToSchema))]
 pub struct Mission {
     /// The mission id.
+    #[cfg_attr(feature = "openapi", schema(value_type = String))]
     pub id: crate::ids::MissionId,
     /// The upload format it came in.
     pub source_format: SourceFormat,
@@ -447,7 +450,7 @@ pub fn validate(
     }
     for (i, c) in m.stationary_obstacles.iter_mut().enumerate() {
         if c.id.is_empty() {
-            c.id = i.to_string();
+            c.id = i.to_string().into();
         }
     }
     // The resolved home lives in `Mission::home`; keep one copy.

@@ -13,6 +13,7 @@ use crate::error::{ApiError, Problem};
 use crate::extract::{ApiQuery, Body, parse_json, require_json};
 use crate::mission::{Mission, MissionInput, SourceFormat};
 use crate::time::{format_rfc3339, now_s};
+use wire::ids::MissionId;
 
 /// `?format=` of a mission upload.
 #[derive(Debug, Deserialize, IntoParams)]
@@ -111,14 +112,14 @@ async fn list_missions(
     ))]
 async fn get_mission(
     State(state): State<AppState>,
-    Path(id): Path<String>,
+    Path(id): Path<MissionId>,
 ) -> Result<axum::Json<Mission>, ApiError> {
     state
         .store
         .get_mission(&id)
         .await?
         .map(axum::Json)
-        .ok_or_else(|| ApiError::not_found("mission", id))
+        .ok_or_else(|| ApiError::not_found("mission", id.as_str()))
 }
 
 /// Delete a mission and all telemetry, plans and state recorded for it.
@@ -130,7 +131,7 @@ async fn get_mission(
     ))]
 async fn delete_mission(
     State(state): State<AppState>,
-    Path(id): Path<String>,
+    Path(id): Path<MissionId>,
 ) -> Result<StatusCode, ApiError> {
     if state.store.delete_mission(&id).await? {
         state.live.forget(&id);
@@ -144,12 +145,12 @@ async fn delete_mission(
 ///
 /// # Errors
 /// 404 when the mission does not exist; 500 on a database failure.
-pub async fn load(state: &AppState, id: &str) -> Result<Mission, ApiError> {
+pub async fn load(state: &AppState, id: &MissionId) -> Result<Mission, ApiError> {
     state
         .store
         .get_mission(id)
         .await?
-        .ok_or_else(|| ApiError::not_found("mission", id))
+        .ok_or_else(|| ApiError::not_found("mission", id.as_str()))
 }
 
 /// Mission routes.

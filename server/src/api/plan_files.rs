@@ -9,6 +9,7 @@ use utoipa_axum::{router::OpenApiRouter, routes};
 use super::plans::{PlanFormat, plan_file};
 use crate::app::AppState;
 use crate::error::{ApiError, Problem};
+use wire::ids::{MissionId, PlanId};
 
 /// A stored plan as a QGC WPL 110 file (index 0 = home).
 #[utoipa::path(get, path = "/api/v1/missions/{id}/plans/{plan_id}/qgc-wpl", tag = "plans",
@@ -20,7 +21,7 @@ use crate::error::{ApiError, Problem};
     ))]
 async fn get_plan_wpl(
     State(state): State<AppState>,
-    Path((id, plan_id)): Path<(String, String)>,
+    Path((id, plan_id)): Path<(MissionId, PlanId)>,
 ) -> Result<Response, ApiError> {
     plan_file(&state, &id, &plan_id, PlanFormat::QgcWpl).await
 }
@@ -35,7 +36,7 @@ async fn get_plan_wpl(
     ))]
 async fn get_plan_qgc(
     State(state): State<AppState>,
-    Path((id, plan_id)): Path<(String, String)>,
+    Path((id, plan_id)): Path<(MissionId, PlanId)>,
 ) -> Result<Response, ApiError> {
     plan_file(&state, &id, &plan_id, PlanFormat::QgcPlan).await
 }

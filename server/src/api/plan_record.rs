@@ -155,8 +155,8 @@ impl PlanRecord {
             .min(waypoints.len());
         let s = self.start;
         Ok(PlanOut {
-            plan_id: row.id.clone(),
-            mission_id: row.mission_id.clone(),
+            plan_id: row.id.to_string(),
+            mission_id: row.mission_id.to_string(),
             revision: row.revision,
             base_revision: self.base_revision,
             outcome: self.outcome,
@@ -328,8 +328,8 @@ mod tests {
             created_at: format_rfc3339(created_at_s),
         };
         let row = PlanRow {
-            id: out.plan_id.clone(),
-            mission_id: out.mission_id.clone(),
+            id: out.plan_id.as_str().into(),
+            mission_id: out.mission_id.as_str().into(),
             revision: out.revision,
             created_at_s,
             seed: out.seed,

@@ -37,6 +37,7 @@ use crate::live::plan_view::{PlanObstacle, PlanWarning, plan_view};
 use crate::mission::Mission;
 use crate::store::plans::{InsertPlanError, PlanRow};
 use crate::time::{format_rfc3339, now_s};
+use wire::ids::{MissionId, PlanId};
 
 /// Longest accepted `deadline_ms`.
 const MAX_DEADLINE_MS: u64 = 60_000;
@@ -215,7 +216,7 @@ impl ObservationWindow {
     pub async fn fetch(
         &self,
         store: &crate::store::Store,
-        mission_id: &str,
+        mission_id: &MissionId,
     ) -> Result<Vec<ObservationUsed>, ApiError> {
         Ok(store
             .list_observations_window(
@@ -652,7 +653,7 @@ pub fn new_seed() -> u64 {
     ))]
 async fn create_plan(
     State(state): State<AppState>,
-    Path(id): Path<String>,
+    Path(id): Path<MissionId>,
     ApiJson(body): ApiJson<PlanBody>,
 ) -> Result<Response, ApiError> {
     let mission = super::missions::load(&state, &id).await?;
@@ -757,7 +758,7 @@ async fn create_plan(
         now,
     );
     let row = PlanRow {
-        id: plan_id.clone(),
+        id: PlanId(plan_id.clone()),
         mission_id: id.clone(),
         revision,
         created_at_s: now,
@@ -846,7 +847,7 @@ pub fn stack_start(
     ))]
 async fn get_plan(
     State(state): State<AppState>,
-    Path((id, plan_id)): Path<(String, String)>,
+    Path((id, plan_id)): Path<(MissionId, PlanId)>,
     ApiQuery(q): ApiQuery<GetParams>,
 ) -> Result<Response, ApiError> {
     let fmt = q.format.unwrap_or(PlanFormat::Json);
@@ -881,8 +882,8 @@ async fn get_plan(
 /// 404 when the mission or the plan does not exist.
 pub(crate) async fn plan_file(
     state: &AppState,
-    id: &str,
-    plan_id: &str,
+    id: &MissionId,
+    plan_id: &PlanId,
     fmt: PlanFormat,
 ) -> Result<Response, ApiError> {
     let mission = super::missions::load(state, id).await?;
@@ -987,7 +988,7 @@ pub struct ReplayOut {
     ))]
 async fn replay_plan(
     State(state): State<AppState>,
-    Path((id, plan_id)): Path<(String, String)>,
+    Path((id, plan_id)): Path<(MissionId, PlanId)>,
 ) -> Result<axum::Json<ReplayOut>, ApiError> {
     let mission = super::missions::load(&state, &id).await?;
     let row = state
@@ -1005,7 +1006,7 @@ async fn replay_plan(
         .await??;
     let replayed = plan_out(
         &id,
-        row.id.clone(),
+        row.id.to_string(),
         row.revision,
         stored.base_revision,
         &inputs,
@@ -1021,7 +1022,7 @@ async fn replay_plan(
         v
     };
     Ok(axum::Json(ReplayOut {
-        plan_id: row.id,
+        plan_id: row.id.0,
         identical: strip(&stored) == strip(&replayed),
         caveat: if inputs.deadline_ms.is_some() {
             Some("deadline".to_string())

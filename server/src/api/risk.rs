@@ -21,6 +21,7 @@ use crate::error::{ApiError, Problem};
 use crate::extract::ApiQuery;
 use crate::geodesy::LocalFrame;
 use crate::mission::{LatLon, Mission};
+use wire::ids::MissionId;
 
 /// Characterization stage of a moving obstacle.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, ToSchema, PartialEq, Eq)]
@@ -177,7 +178,7 @@ pub struct ObstacleOut {
     ))]
 async fn list_obstacles(
     State(state): State<AppState>,
-    Path(id): Path<String>,
+    Path(id): Path<MissionId>,
 ) -> Result<axum::Json<Vec<ObstacleOut>>, ApiError> {
     let mission = state
         .store
@@ -223,7 +224,7 @@ async fn list_obstacles(
             id: if c.id.is_empty() {
                 format!("stationary-{i}")
             } else {
-                c.id.clone()
+                c.id.to_string()
             },
             kind: ObstacleKind::Stationary,
             stage: None,
@@ -313,7 +314,7 @@ pub struct RiskSliceOut {
     ))]
 async fn get_risk(
     State(state): State<AppState>,
-    Path(id): Path<String>,
+    Path(id): Path<MissionId>,
     ApiQuery(q): ApiQuery<RiskParams>,
 ) -> Result<Response, ApiError> {
     let ahead = q.t.unwrap_or(0.0);

@@ -15,6 +15,7 @@ use crate::extract::{ApiQuery, Body, MediaType, from_value, media_type, parse_js
 use crate::interop::{self, ObstacleSnapshot2018, Telemetry2018, Telemetry2019};
 use crate::store::{InsertCounts, ObservationRow, TelemetryRow};
 use crate::time::{WireTime, now_s};
+use wire::ids::MissionId;
 
 /// One native moving-obstacle observation.
 #[derive(Debug, Clone, Serialize, Deserialize, ToSchema)]
@@ -117,7 +118,7 @@ fn check_position(
     ))]
 async fn post_obstacles(
     State(state): State<AppState>,
-    Path(id): Path<String>,
+    Path(id): Path<MissionId>,
     ApiQuery(params): ApiQuery<SnapshotParams>,
     headers: HeaderMap,
     Body(body): Body,
@@ -251,7 +252,7 @@ pub struct ObservationQuery {
     ))]
 async fn list_observations(
     State(state): State<AppState>,
-    Path(id): Path<String>,
+    Path(id): Path<MissionId>,
     ApiQuery(q): ApiQuery<ObservationQuery>,
 ) -> Result<axum::Json<Vec<ObservationOut>>, ApiError> {
     if !state.store.mission_exists(&id).await? {
@@ -367,7 +368,7 @@ fn telemetry_row(
     ))]
 async fn post_telemetry(
     State(state): State<AppState>,
-    Path(id): Path<String>,
+    Path(id): Path<MissionId>,
     headers: HeaderMap,
     Body(body): Body,
 ) -> Result<(StatusCode, axum::Json<IngestResult>), ApiError> {
@@ -464,7 +465,7 @@ pub struct TelemetryQuery {
     ))]
 async fn list_telemetry(
     State(state): State<AppState>,
-    Path(id): Path<String>,
+    Path(id): Path<MissionId>,
     ApiQuery(q): ApiQuery<TelemetryQuery>,
 ) -> Result<axum::Json<Vec<AircraftTelemetryOut>>, ApiError> {
     if !state.store.mission_exists(&id).await? {

@@ -15,6 +15,7 @@ use sqlx::{AnyPool, AssertSqlSafe, Executor, Row};
 
 use crate::mission::Mission;
 use crate::time::{from_us, to_us};
+use wire::ids::MissionId;
 
 pub mod observations;
 pub mod plans;
@@ -238,7 +239,7 @@ impl Store {
 
     /// One mission, if it exists.
     #[tracing::instrument(skip(self))]
-    pub async fn get_mission(&self, id: &str) -> Result<Option<Mission>, sqlx::Error> {
+    pub async fn get_mission(&self, id: &MissionId) -> Result<Option<Mission>, sqlx::Error> {
         let row = sqlx::query("SELECT body FROM missions WHERE id = $1")
             .bind(id.to_string())
             .fetch_optional(&self.read)
@@ -248,7 +249,7 @@ impl Store {
     }
 
     /// True when the mission exists.
-    pub async fn mission_exists(&self, id: &str) -> Result<bool, sqlx::Error> {
+    pub async fn mission_exists(&self, id: &MissionId) -> Result<bool, sqlx::Error> {
         let row = sqlx::query("SELECT 1 FROM missions WHERE id = $1")
             .bind(id.to_string())
             .fetch_optional(&self.read)
@@ -269,7 +270,7 @@ impl Store {
 
     /// Deletes a mission and everything recorded for it. False when it did not exist.
     #[tracing::instrument(skip(self))]
-    pub async fn delete_mission(&self, id: &str) -> Result<bool, sqlx::Error> {
+    pub async fn delete_mission(&self, id: &MissionId) -> Result<bool, sqlx::Error> {
         let mut tx = self.write.begin().await?;
         for table in CHILD_TABLES {
             let sql = format!("DELETE FROM {table} WHERE mission_id = $1");
@@ -321,7 +322,7 @@ impl Store {
     #[tracing::instrument(skip(self))]
     pub async fn list_observations(
         &self,
-        mission_id: &str,
+        mission_id: &MissionId,
         obstacle_id: Option<&str>,
         after_s: Option<f64>,
     ) -> Result<Vec<ObservationRow>, sqlx::Error> {
@@ -343,7 +344,7 @@ impl Store {
     #[tracing::instrument(skip(self))]
     pub async fn list_observations_window(
         &self,
-        mission_id: &str,
+        mission_id: &MissionId,
         after_us: i64,
         until_us: i64,
         received_until_us: i64,
@@ -366,7 +367,7 @@ impl Store {
     #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]
     pub async fn insert_telemetry(
         &self,
-        mission_id: &str,
+        mission_id: &MissionId,
         rows: &[TelemetryRow],
         received_at_s: f64,
     ) -> Result<Option<InsertCounts>, sqlx::Error> {
@@ -378,7 +379,7 @@ impl Store {
 
     async fn insert_telemetry_inner(
         &self,
-        mission_id: &str,
+        mission_id: &MissionId,
         rows: &[TelemetryRow],
         received_at_s: f64,
     ) -> Result<InsertCounts, sqlx::Error> {
@@ -405,7 +406,7 @@ impl Store {
     }
 
     /// An empty batch stores nothing but still fails like an insert for a missing mission.
-    async fn empty_batch(&self, mission_id: &str) -> Result<InsertCounts, sqlx::Error> {
+    async fn empty_batch(&self, mission_id: &MissionId) -> Result<InsertCounts, sqlx::Error> {
         if self.mission_exists(mission_id).await? {
             Ok(InsertCounts::default())
         } else {
@@ -417,7 +418,7 @@ impl Store {
     #[tracing::instrument(skip(self))]
     pub async fn list_telemetry(
         &self,
-        mission_id: &str,
+        mission_id: &MissionId,
         last: Option<u32>,
     ) -> Result<Vec<TelemetryRow>, sqlx::Error> {
         let rows = sqlx::query(

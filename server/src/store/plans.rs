@@ -5,14 +5,15 @@ use sqlx::Row;
 
 use super::Store;
 use crate::time::{from_us, to_us};
+use wire::ids::{MissionId, PlanId};
 
 /// A stored plan.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlanRow {
     /// Plan id.
-    pub id: String,
+    pub id: PlanId,
     /// Mission id.
-    pub mission_id: String,
+    pub mission_id: MissionId,
     /// Revision within the mission (1, 2, ...).
     pub revision: i64,
     /// When it was stored, Unix seconds.
@@ -42,7 +43,7 @@ pub enum InsertPlanError {
 impl Store {
     /// The newest revision of a mission's plans (0 when none).
     #[tracing::instrument(skip(self))]
-    pub async fn latest_plan_revision(&self, mission_id: &str) -> Result<i64, sqlx::Error> {
+    pub async fn latest_plan_revision(&self, mission_id: &MissionId) -> Result<i64, sqlx::Error> {
         let row = sqlx::query("SELECT COALESCE(MAX(revision), 0) FROM plans WHERE mission_id = $1")
             .bind(mission_id.to_string())
             .fetch_one(&self.write)
@@ -56,8 +57,8 @@ impl Store {
         let r = sqlx::query(
             "INSERT INTO plans (id, mission_id, revision, created_at_us, seed, inputs, body) VALUES ($1, $2, $3, $4, $5, $6, $7)",
         )
-        .bind(row.id.clone())
-        .bind(row.mission_id.clone())
+        .bind(row.id.0.clone())
+        .bind(row.mission_id.0.clone())
         .bind(row.revision)
         .bind(to_us(row.created_at_s))
         .bind(row.seed.to_string())
@@ -85,8 +86,8 @@ impl Store {
     #[tracing::instrument(skip(self))]
     pub async fn get_plan(
         &self,
-        mission_id: &str,
-        plan_id: &str,
+        mission_id: &MissionId,
+        plan_id: &PlanId,
     ) -> Result<Option<PlanRow>, sqlx::Error> {
         self.plan_where("id = $2", mission_id, PlanKey::Id(plan_id))
             .await
@@ -96,7 +97,7 @@ impl Store {
     #[tracing::instrument(skip(self))]
     pub async fn get_plan_by_revision(
         &self,
-        mission_id: &str,
+        mission_id: &MissionId,
         revision: i64,
     ) -> Result<Option<PlanRow>, sqlx::Error> {
         self.plan_where("revision = $2", mission_id, PlanKey::Revision(revision))
@@ -106,7 +107,7 @@ impl Store {
     async fn plan_where(
         &self,
         cond: &'static str,
-        mission_id: &str,
+        mission_id: &MissionId,
         key: PlanKey<'_>,
     ) -> Result<Option<PlanRow>, sqlx::Error> {
         let sql = match cond {
@@ -125,8 +126,8 @@ impl Store {
         let row = q.fetch_optional(&self.write).await?;
         row.map(|r| {
             Ok(PlanRow {
-                id: r.try_get(0)?,
-                mission_id: r.try_get(1)?,
+                id: PlanId(r.try_get(0)?),
+                mission_id: MissionId(r.try_get(1)?),
                 revision: r.try_get(2)?,
                 created_at_s: from_us(r.try_get(3)?),
                 seed: r
