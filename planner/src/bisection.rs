@@ -26,13 +26,11 @@
 //! Budget: a (sub-)leg without threat (`segment_risk_bound` below `threat_epsilon` and no
 //! blocking cylinder) is returned straight at once; the sample count grows with the leg's
 //! variability (a hint in `[0, 1]`, or the segment risk bound when absent) from `samples`
-//! to `max_samples`; a deadline stops the search (anytime: what has been decided is kept,
+//! to `max_samples`; a [`Termination`] (deadline or cancel flag) stops the search (anytime: what has been decided is kept,
 //! the rest stays straight) and is checked before each choice is sampled.
 //!
 //! Determinism: all randomness comes from the caller's generator, consumed in a fixed
 //! order. Buffers live in a reusable [`Workspace`]; the hot loop does not allocate.
-
-use std::time::Instant;
 
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -42,6 +40,7 @@ use crate::geometry::{
     Point, add, dist, dist_point_segment, lerp, norm, perp, scale, sub, turn_angle_rad, unit,
 };
 use crate::mission::Cylinder;
+use crate::termination::Termination;
 use crate::turn::fillet_tangent_m;
 
 /// Number of turning choices per bisection (seed 002: five).
@@ -134,7 +133,7 @@ struct Ctx<'a, 'e, R: Rng + ?Sized> {
     params: &'a BisectionParams,
     turn_radius_m: f64,
     samples: usize,
-    deadline: Option<Instant>,
+    term: &'a Termination,
     rng: &'a mut R,
     ws: &'a mut Workspace,
     out: LegSearch,
@@ -150,7 +149,7 @@ pub fn bisect_leg<R: Rng + ?Sized>(
     turn_radius_m: f64,
     params: &BisectionParams,
     variability: Option<f64>,
-    deadline: Option<Instant>,
+    term: &Termination,
     rng: &mut R,
     ws: &mut Workspace,
 ) -> LegSearch {
@@ -167,7 +166,7 @@ pub fn bisect_leg<R: Rng + ?Sized>(
         params,
         turn_radius_m,
         samples: samples.max(1),
-        deadline,
+        term,
         rng,
         ws,
         out: LegSearch {
@@ -200,7 +199,7 @@ fn blocking_cylinder<'c>(env: &'c LegEnv<'_>, a: Point, b: Point) -> Option<&'c 
 }
 
 fn timed_out<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>) -> bool {
-    if ctx.deadline.is_some_and(|d| Instant::now() >= d) {
+    if ctx.term.should_stop() {
         ctx.out.timed_out = true;
         return true;
     }
@@ -487,7 +486,7 @@ mod tests {
             40.0,
             &BisectionParams::default(),
             None,
-            None,
+            &Termination::default(),
             &mut rng,
             &mut Workspace::default(),
         );
@@ -507,7 +506,7 @@ mod tests {
             40.0,
             &BisectionParams::default(),
             None,
-            None,
+            &Termination::default(),
             &mut rng,
             &mut Workspace::default(),
         );
@@ -533,7 +532,7 @@ mod tests {
                 40.0,
                 &BisectionParams::default(),
                 None,
-                None,
+                &Termination::default(),
                 &mut rng,
                 &mut Workspace::default(),
             )

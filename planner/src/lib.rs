@@ -15,11 +15,17 @@ pub mod mission;
 pub mod plan;
 pub mod prepass;
 pub mod reactive;
+pub mod replan;
 pub mod simplify;
 pub mod stack;
+pub mod termination;
 pub mod turn;
 
 pub use insertion::{Circle, InsertOutcome, insert_waypoint};
 pub use mission::{Aircraft, Cylinder, FlyZone, Mission, Waypoint};
-pub use plan::{AircraftState, Plan, PlanOutcome, PlanParams, PlanRequest, Strategy, plan};
+pub use plan::{
+    AircraftState, Plan, PlanOutcome, PlanParams, PlanRequest, Strategy, plan, plan_until,
+};
+pub use replan::{Dynamic, DynamicSeen, Replan, ReplanConfig, Replanned, SeenObstacle, replan};
 pub use stack::{ItemKind, StackDiff, StackItem, diff};
+pub use termination::Termination;

@@ -49,8 +49,6 @@
 //! assert_eq!(p.diff.apply(&stack), p.items);
 //! ```
 
-use std::time::Instant;
-
 use predictor::RiskField;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -62,6 +60,7 @@ use crate::mission::{Aircraft, Mission, Zones, cylinder_containing};
 use crate::prepass::{PrepassParams, prepass_leg};
 use crate::simplify::simplify_path;
 use crate::stack::{ItemKind, StackDiff, StackItem, diff, mission_stack};
+use crate::termination::Termination;
 use crate::turn::turn_violations;
 
 /// Where the aircraft is now (from the latest telemetry).
@@ -106,8 +105,6 @@ pub struct PlanParams {
     pub prepass: PrepassParams,
     /// Dynamic risk is looked at up to this many seconds after the telemetry. Default 60.
     pub horizon_s: f64,
-    /// Anytime deadline; `None` = run to completion.
-    pub deadline: Option<Instant>,
     /// Peak risk at or below which a plan counts as safe. Default 0.05.
     pub safe_risk: f64,
     /// Obstacle variability hint in `[0, 1]` (e.g. from the predictor's stage);
@@ -124,7 +121,6 @@ impl Default for PlanParams {
             bisection: BisectionParams::default(),
             prepass: PrepassParams::default(),
             horizon_s: 60.0,
-            deadline: None,
             safe_risk: 0.05,
             variability: None,
             eval_step_m: 10.0,
@@ -136,11 +132,6 @@ impl PlanParams {
     /// Sets the strategy.
     pub fn strategy(mut self, s: Strategy) -> Self {
         self.strategy = s;
-        self
-    }
-    /// Sets the deadline.
-    pub fn deadline(mut self, d: Option<Instant>) -> Self {
-        self.deadline = d;
         self
     }
     /// Sets the samples per choice.
@@ -284,6 +275,19 @@ pub fn leg_seed(plan_seed: u64, leg: usize, sub: usize) -> u64 {
 /// # Errors
 /// [`PlanError`] for bad input only; "no path" is a [`PlanOutcome`].
 pub fn plan(req: &PlanRequest<'_>, risk: &dyn RiskField) -> Result<Plan, PlanError> {
+    plan_until(req, risk, &Termination::none())
+}
+
+/// [`plan`] that stops its searches when `term` says so (anytime: the best found so far
+/// is returned, with outcome `timeout` or `approximate`).
+///
+/// # Errors
+/// [`PlanError`] for bad input only.
+pub fn plan_until(
+    req: &PlanRequest<'_>,
+    risk: &dyn RiskField,
+    term: &Termination,
+) -> Result<Plan, PlanError> {
     let speed = if req.state.speed_mps > 0.0 && req.state.speed_mps.is_finite() {
         req.state.speed_mps
     } else {
@@ -374,7 +378,7 @@ pub fn plan(req: &PlanRequest<'_>, risk: &dyn RiskField) -> Result<Plan, PlanErr
                         req.aircraft.turn_radius_m,
                         &p.bisection,
                         p.variability,
-                        p.deadline,
+                        term,
                         &mut rng,
                         &mut ws,
                     );

@@ -273,12 +273,27 @@ fn a_deadline_already_passed_returns_the_pre_pass_plan_as_a_timeout() {
         growth_mps: 0.5,
     }]);
     let stack = mission_stack(&m);
-    let mut req = request(&m, &stack, 1, state_at([0.0, 0.0], 100.0), 3);
-    req.params = req.params.deadline(Some(std::time::Instant::now()));
-    let p = plan(&req, &field).unwrap();
+    let req = request(&m, &stack, 1, state_at([0.0, 0.0], 100.0), 3);
+    let term = planner::Termination::deadline(Some(std::time::Instant::now()));
+    let p = planner::plan_until(&req, &field, &term).unwrap();
     assert_eq!(p.outcome, PlanOutcome::Timeout);
     assert!(p.risk <= p.base_risk);
     assert_eq!(p.items.len(), 2);
+
+    // A raised cancel flag stops the search the same way (no hang, an outcome); without
+    // it the same request is searched and dodges the mover.
+    let flag = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let cancelled = planner::plan_until(
+        &req,
+        &field,
+        &planner::Termination::none().with_cancel(flag),
+    )
+    .unwrap();
+    assert_eq!(cancelled.outcome, PlanOutcome::Timeout);
+    assert_eq!(cancelled.items.len(), 2);
+    let full = plan(&req, &field).unwrap();
+    assert_ne!(full.outcome, PlanOutcome::Timeout);
+    assert!(full.items.len() > 2, "{:?}", full.items);
 }
 
 #[test]

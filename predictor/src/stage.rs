@@ -49,6 +49,18 @@ impl Stage {
             Stage::Memory => "memory",
         }
     }
+
+    /// How unpredictable an obstacle in this stage is, in `[0, 1]`: the planner's sample
+    /// budget hint (seed 002: more variable obstacles earn more samples). NoFly 1.0,
+    /// Random 0.8, Advanced 0.5, Memory 0.3.
+    pub fn variability(self) -> f64 {
+        match self {
+            Stage::NoFly => 1.0,
+            Stage::Random => 0.8,
+            Stage::Advanced => 0.5,
+            Stage::Memory => 0.3,
+        }
+    }
 }
 
 /// One recorded stage change and the statistic behind it.

@@ -25,8 +25,8 @@ use utoipa::{IntoParams, ToSchema};
 use utoipa_axum::{router::OpenApiRouter, routes};
 
 use planner::export::{GeoItem, GeoPoint, PlanFileOptions, qgc_plan, qgc_wpl};
-use planner::{ItemKind, PlanOutcome, PlanParams, PlanRequest, StackItem, Strategy};
-use predictor::{NoRisk, Predictor, RiskField};
+use planner::{ItemKind, PlanOutcome, StackItem, Strategy};
+use predictor::Predictor;
 
 use super::plan_record::{PlanRecord, stored_plan_out};
 use crate::app::AppState;
@@ -503,35 +503,39 @@ pub fn compute(
     )
     .map_err(|e| ApiError::Internal(format!("risk map: {e}")))?;
     let map = view.map.clone();
-    let risk: &dyn RiskField = match &map {
-        Some(m) => m.as_ref(),
-        None => &NoRisk,
+    let summaries: Vec<predictor::ObstacleSummary> = match &map {
+        Some(_) => snap.predictor.obstacles().collect(),
+        None => Vec::new(),
     };
-    // Sample budget: the least predictable stage among the obstacles sets the variability
-    // hint (seed 002: more variable obstacles earn more samples).
-    let variability = view.variability;
-    let mut params = PlanParams::default()
-        .horizon_s(inputs.horizon_s)
-        .deadline(deadline);
-    params.variability = variability;
-    params.strategy = match inputs.strategy {
-        StrategyIn::Bisection => Strategy::Bisection,
-        StrategyIn::Insertion => Strategy::Insertion,
-        StrategyIn::None => Strategy::None,
+    let dynamic = match &map {
+        Some(m) => planner::Dynamic::Map {
+            map: m.as_ref(),
+            obstacles: &summaries,
+        },
+        None => planner::Dynamic::None,
     };
-    let req = PlanRequest {
+    // One pipeline with the simulator: the seam sets the sample budget from the least
+    // predictable stage in the map (seed 002).
+    let cfg = crate::live::snapshot::service_config(inputs.horizon_s);
+    let r = planner::Replan {
         mission: &pm,
         aircraft: planner::Aircraft {
             speed_mps: inputs.speed_mps,
             turn_radius_m: inputs.turn_radius_m,
         },
+        state,
         stack: &base,
         current_index: inputs.current_index,
-        state,
-        params,
+        strategy: match inputs.strategy {
+            StrategyIn::Bisection => Strategy::Bisection,
+            StrategyIn::Insertion => Strategy::Insertion,
+            StrategyIn::None => Strategy::None,
+        },
         seed: inputs.seed,
     };
-    let plan = planner::plan(&req, risk).map_err(|e| ApiError::field("", e.to_string()))?;
+    let plan = planner::replan(&r, dynamic, &cfg, &planner::Termination::deadline(deadline))
+        .map_err(|e| ApiError::field("", e.to_string()))?
+        .plan;
     let geo = |it: &StackItem| {
         let (lat, lon) = match (it.kind, it.mission_index) {
             (ItemKind::Mission, Some(i)) if i < mission.content.waypoints.len() => (

@@ -16,7 +16,7 @@
 
 use std::sync::Arc;
 
-use predictor::{RiskMap, Stage};
+use predictor::RiskMap;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
@@ -67,15 +67,6 @@ pub struct PlanView {
     pub variability: Option<f64>,
 }
 
-fn variability(stage: Stage) -> f64 {
-    match stage {
-        Stage::NoFly => 1.0,
-        Stage::Random => 0.8,
-        Stage::Advanced => 0.5,
-        Stage::Memory => 0.3,
-    }
-}
-
 /// The plan's view of `snap` for a start at `start_t_s` (from telemetry when
 /// `from_telemetry`) over `horizon_s`; `with_map` false skips the map (insertion only).
 ///
@@ -97,7 +88,7 @@ pub fn plan_view(
         let considered = last_t >= start_t_s - horizon_s;
         if considered {
             ids.push(o.id.clone());
-            let v = variability(o.stage);
+            let v = o.stage.variability();
             var = Some(var.map_or(v, |a: f64| a.max(v)));
         }
         obstacles.push(PlanObstacle {

@@ -35,25 +35,13 @@ pub const STALE_AFTER_S: f64 = LIVE_HORIZON_S;
 /// zones' and home's bounding box plus [`SERVICE_MARGIN_M`], [`SERVICE_CELL_M`] cells,
 /// [`SLICE_DT_S`] slices over `horizon_s`.
 pub fn map_config(mission: &Mission, horizon_s: f64) -> RiskMapConfig {
-    let frame = mission.frame();
-    let (mut lo, mut hi) = ([0.0f64; 2], [0.0f64; 2]);
-    for p in mission
-        .content
-        .fly_zones
-        .iter()
-        .flat_map(|z| z.boundary.iter())
-    {
-        let q = frame.to_enu(p.lat, p.lon);
-        lo = [lo[0].min(q[0]), lo[1].min(q[1])];
-        hi = [hi[0].max(q[0]), hi[1].max(q[1])];
-    }
-    RiskMapConfig::default()
-        .bounds(
-            [lo[0] - SERVICE_MARGIN_M, lo[1] - SERVICE_MARGIN_M],
-            [hi[0] + SERVICE_MARGIN_M, hi[1] + SERVICE_MARGIN_M],
-        )
-        .cell_m(SERVICE_CELL_M)
-        .time(SLICE_DT_S, horizon_s.max(SLICE_DT_S))
+    service_config(horizon_s).map_config(&mission.to_planner())
+}
+
+/// The service's replanning parameters: the shared defaults ([`planner::ReplanConfig`]:
+/// [`SERVICE_CELL_M`] cells, [`SERVICE_MARGIN_M`] margin) over `horizon_s`.
+pub fn service_config(horizon_s: f64) -> planner::ReplanConfig {
+    planner::ReplanConfig::default().horizon_s(horizon_s)
 }
 
 /// Feeds stored rows, in the order given (feeding order), to `predictor`.

@@ -4,18 +4,20 @@
 //! stack's tail with its static pre-pass plus Monte Carlo bisection. The predictor's stage is
 //! either forced (to compare stages) or automatic.
 //!
-//! Defaults tuned for closed-loop use at 1 Hz: horizon 20 s in 1 s slices, 12 m cells,
+//! Planning goes through the same seam as the server ([`planner::replan`]): the same
+//! risk-map grid rule (fly zones and home plus a margin), the same stage-to-sample-budget
+//! policy, the same pipeline. The parameters differ from the shared defaults only where
+//! stated in [`Bisection::new`] (closed-loop use at 1 Hz, the README's results table was
+//! measured this way): horizon 20 s, 12 m cells, 100 m margin, one resolution,
 //! 64 particles, buffer 10 m. Plans run without a deadline so that a run is reproducible
 //! bit for bit; the plan seed is derived from the run seed and the call count.
 
-use predictor::{Observation, Predictor, PredictorConfig, RiskMapConfig, Stage};
+use predictor::{Observation, Predictor, PredictorConfig, Stage};
 
 use super::planner_adapter::{
     from_planner_stack, to_planner_aircraft, to_planner_mission, to_planner_stack, to_planner_state,
 };
-use super::route::route_points;
 use super::{Command, ForcedStage, Strategy, View};
-use crate::geometry::xy;
 
 /// Map a forced stage to the predictor's.
 pub fn stage_of(s: ForcedStage) -> Stage {
@@ -27,15 +29,29 @@ pub fn stage_of(s: ForcedStage) -> Stage {
     }
 }
 
+/// The simulator's replanning parameters: the shared defaults except a 20 s horizon,
+/// 12 m cells, 100 m margin, one resolution, 64 particles, 10 m buffer and the run seed.
+pub fn sim_config(seed: u64) -> planner::ReplanConfig {
+    let mut c = planner::ReplanConfig::default().horizon_s(20.0);
+    c.margin_m = 100.0;
+    c.map = c
+        .map
+        .cell_m(12.0)
+        .particles(64)
+        .buffer_m(10.0)
+        // One resolution throughout: the 20 s horizon is short.
+        .resolution(f64::INFINITY, f64::INFINITY, 1)
+        .seed(seed);
+    c
+}
+
 /// Monte Carlo bisection against the predictor's risk map.
 #[derive(Debug)]
 pub struct Bisection {
     predictor: Predictor,
     fed: Vec<usize>,
-    /// Risk-map parameters (bounds are set from the mission at the first call).
-    pub map: RiskMapConfig,
-    /// Planner parameters.
-    pub plan: planner::PlanParams,
+    /// Replanning parameters (risk map and planner).
+    pub config: planner::ReplanConfig,
     /// Replanning period, seconds.
     pub period_s: f64,
     seed: u64,
@@ -47,20 +63,10 @@ impl Bisection {
     /// A fresh strategy; `forced` pins the predictor's stage.
     pub fn new(forced: Option<ForcedStage>, seed: u64) -> Self {
         let cfg = PredictorConfig::default().forced_stage(forced.map(stage_of));
-        let horizon_s = 20.0;
         Self {
             predictor: Predictor::new(cfg),
             fed: vec![],
-            map: RiskMapConfig::default()
-                .cell_m(12.0)
-                .time(1.0, horizon_s)
-                .particles(64)
-                .buffer_m(10.0)
-                // One resolution throughout: the 20 s horizon is short, and the README's
-                // results table was measured this way.
-                .resolution(f64::INFINITY, f64::INFINITY, 1)
-                .seed(seed),
-            plan: planner::PlanParams::default().horizon_s(horizon_s),
+            config: sim_config(seed),
             period_s: 1.0,
             seed,
             calls: 0,
@@ -81,11 +87,6 @@ impl Strategy for Bisection {
 
     fn decide(&mut self, view: &View<'_>) -> Command {
         if self.planner_mission.is_none() {
-            let (lo, hi) = view.mission.bounds_m();
-            self.map = self.map.clone().bounds(
-                [lo[0] - 100.0, lo[1] - 100.0],
-                [hi[0] + 100.0, hi[1] + 100.0],
-            );
             self.planner_mission = Some(to_planner_mission(view.mission));
         }
         self.fed.resize(view.tracks.len(), 0);
@@ -102,25 +103,24 @@ impl Strategy for Bisection {
             }
             self.fed[i] = track.len();
         }
-        let path: Vec<[f64; 2]> = route_points(view.stack, view.own.p_m)
-            .into_iter()
-            .map(xy)
-            .collect();
-        let map = self.predictor.risk_map(&self.map, &path, view.t_s);
         let mission = self.planner_mission.as_ref().expect("set above");
         let stack = to_planner_stack(view.stack);
         self.calls += 1;
-        let req = planner::PlanRequest {
+        let r = planner::Replan {
             mission,
             aircraft: to_planner_aircraft(view.aircraft),
+            state: to_planner_state(&view.own),
             stack: &stack,
             current_index: view.stack.current,
-            state: to_planner_state(&view.own),
-            params: self.plan,
+            strategy: planner::Strategy::Bisection,
             seed: planner::plan::leg_seed(self.seed, self.calls as usize, 0),
         };
-        match planner::plan(&req, map) {
-            Ok(p) => Command::Replace(from_planner_stack(&p.items, p.current_index)),
+        let dynamic = planner::Dynamic::Predictor {
+            predictor: &mut self.predictor,
+            t0_s: view.t_s,
+        };
+        match planner::replan(&r, dynamic, &self.config, &planner::Termination::none()) {
+            Ok(p) => Command::Replace(from_planner_stack(&p.plan.items, p.plan.current_index)),
             Err(_) => Command::Keep,
         }
     }
