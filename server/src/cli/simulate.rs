@@ -17,6 +17,18 @@ use sim::scenario::{Family, Scenario, generate, with_moving_spheres};
 use sim::strategy::StrategyKind;
 use sim::suite::{SuiteConfig, run_suite_on};
 
+/// The seeds to plot: `--plot`'s, none with `--no-plot`, else the first seed (a picture of
+/// one run is what a person looks at first).
+fn plot_seeds(args: &SimulateArgs) -> Vec<u64> {
+    if args.no_plot {
+        Vec::new()
+    } else if args.plot.is_empty() {
+        vec![args.first_seed]
+    } else {
+        args.plot.clone()
+    }
+}
+
 /// Flags of `jink simulate`.
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
@@ -42,9 +54,14 @@ pub struct SimulateArgs {
     #[arg(long, default_value = "sim-out")]
     pub out: PathBuf,
 
-    /// Seeds to plot as SVG (one file per family, seed and strategy).
+    /// Seeds to plot as SVG (one file per family, seed and strategy). Default: the first
+    /// seed.
     #[arg(long, num_args = 1..)]
     pub plot: Vec<u64>,
+
+    /// Write no SVG plot at all.
+    #[arg(long, conflicts_with = "plot")]
+    pub no_plot: bool,
 
     /// Fly this mission file (native or interop JSON) with generated moving spheres.
     #[arg(long)]
@@ -133,7 +150,7 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         families,
         seeds: (args.first_seed..args.first_seed + args.seeds).collect(),
         strategies,
-        plot_seeds: args.plot.clone(),
+        plot_seeds: plot_seeds(&args),
         ..SuiteConfig::default()
     };
     let make = |family: Family, seed: u64| -> Scenario {
@@ -233,6 +250,25 @@ fn write_outputs(
 mod tests {
     use super::*;
     use sim::geometry::{point_in_polygon, xy};
+
+    #[test]
+    fn the_first_seed_is_plotted_unless_told_otherwise() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: SimulateArgs,
+        }
+        let seeds = |argv: &[&str]| {
+            let cli = Cli::try_parse_from(std::iter::once("simulate").chain(argv.iter().copied()))
+                .unwrap();
+            plot_seeds(&cli.args)
+        };
+        assert_eq!(seeds(&["--first-seed", "5"]), vec![5]);
+        assert_eq!(seeds(&["--plot", "7", "9"]), vec![7, 9]);
+        assert!(seeds(&["--no-plot"]).is_empty());
+        assert!(Cli::try_parse_from(["simulate", "--no-plot", "--plot", "3"]).is_err());
+    }
 
     #[test]
     fn the_webster_field_fixture_loads_into_the_simulators_enu_mission() {

@@ -117,3 +117,49 @@ async fn the_docs_page_needs_no_internet() {
     let landing = app.get("/").await.text().await.unwrap();
     assert!(landing.contains("/docs/"));
 }
+
+#[test]
+fn logs_written_to_a_file_carry_no_colour_escapes() {
+    use std::io::{BufRead, BufReader, Read, Write};
+    let dir = tempfile::tempdir().unwrap();
+    let log_path = dir.path().join("jink.log");
+    let log = std::fs::File::create(&log_path).unwrap();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
+        .args([
+            "serve",
+            "--bind",
+            "127.0.0.1:0",
+            "--database-url",
+            "sqlite://jink.sqlite",
+        ])
+        .env("RUST_LOG", "info")
+        .current_dir(dir.path())
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(log)
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let addr = lines
+        .find_map(|l| {
+            l.ok()?
+                .strip_prefix("jink listening on ")
+                .map(str::to_string)
+        })
+        .expect("listening line");
+    let mut conn = std::net::TcpStream::connect(addr.trim_start_matches("http://")).unwrap();
+    conn.write_all(b"GET /healthz HTTP/1.1\r\nhost: x\r\nconnection: close\r\n\r\n")
+        .unwrap();
+    let mut answer = String::new();
+    conn.read_to_string(&mut answer).unwrap();
+    assert!(answer.starts_with("HTTP/1.1 200"), "{answer}");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let _ = child.kill();
+    let _ = child.wait();
+    let text = std::fs::read_to_string(&log_path).unwrap();
+    assert!(text.contains("INFO"), "the log has info lines: {text}");
+    assert!(
+        !text.contains('\u{1b}'),
+        "colour escape codes in a log file: {text:?}"
+    );
+}
