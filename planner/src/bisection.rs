@@ -11,12 +11,15 @@
 //! 2. For each choice, `S` sampled paths `A -> C -> B` of equidistant points (`n` per half),
 //!    each interior point pushed along the half's normal by a normal deviate
 //!    `sigma * z`, `z ~ N(0, 1)` clamped to `[-2, 2]`, tapered by `sin(pi i / n)` so the
-//!    ends stay put. `sigma = min(delta / 2, ds^2 / (8 R))`: with spacing `ds` and turn
-//!    radius `R`, the middle of three points then deviates from its neighbours' chord by
-//!    at most `4 sigma = ds^2 / (2 R)`, the sagitta of a radius-`R` arc over `2 ds`, so no
-//!    sample bends tighter than the aircraft can.
-//! 3. A sample's score is `sum risk(p_i, t_i) * ds_i` (exposure; `t_i` the arrival time at
-//!    constant speed, zero past the horizon) plus hard penalties (a segment in a cylinder's
+//!    ends stay put. `sigma = delta / 4`: the samples of one choice sweep up to half the way
+//!    to the neighbouring choices, so a choice scores well only when the region around it
+//!    is safe too (seed 002's robustness argument). Sampled paths may bend tighter than the
+//!    aircraft can; the chosen path is simplified, and every returned route is flown
+//!    forward at the turn radius and checked ([`crate::verify`]).
+//! 3. A sample's score is `sum risk(p_i, t_i) * ds_i` (exposure, read at most
+//!    [`MAX_READ_SPACING_M`] apart so that the smallest sphere cannot fall between two
+//!    reads; `t_i` the arrival time at constant speed, zero past the horizon) plus hard
+//!    penalties (a segment in a cylinder's
 //!    buffer or out of the fly zone; a turn at `C` too sharp for `R`) plus a small length
 //!    weight. A choice's score is the mean over its samples (robustness).
 //! 4. The best choice is kept; `A -> C` and `C -> B` are searched the same way, down to
@@ -48,6 +51,10 @@ pub const CHOICES: usize = 5;
 
 /// Probe points along a leg (and across it) when sizing the choices.
 const PROBES: usize = 16;
+
+/// Largest spacing of risk reads along a sampled path, metres (below the 9.1 m radius of
+/// the smallest 30 ft sphere plus the map's buffer, twice).
+pub const MAX_READ_SPACING_M: f64 = 20.0;
 
 /// Bisection parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -282,13 +289,7 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
 
     let half = 0.5 * l;
     let np = params.points_per_half.max(2);
-    let ds = half / np as f64;
-    let sigma_cap = if ctx.turn_radius_m > 0.0 {
-        ds * ds / (8.0 * ctx.turn_radius_m)
-    } else {
-        f64::INFINITY
-    };
-    let sigma = (delta / 2.0).min(sigma_cap);
+    let sigma = delta / 4.0;
 
     let mut scores = [f64::INFINITY; CHOICES];
     let mut best_sample = [f64::INFINITY; CHOICES];
@@ -413,11 +414,17 @@ fn score_sample<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, t_a: f64, zone_safe: 
         let (p, q) = (w[0], w[1]);
         let l = dist(p, q);
         length += l;
-        t += l / env.speed_mps;
-        if t <= env.horizon_end_s {
-            exposure += env.risk.risk(q, t) * l;
+        let n = (l / MAX_READ_SPACING_M).ceil().max(1.0) as usize;
+        let ds = l / n as f64;
+        for i in 1..=n {
+            let ti = t + i as f64 * ds / env.speed_mps;
+            if ti > env.horizon_end_s {
+                break;
+            }
+            exposure += env.risk.risk(lerp(p, q, i as f64 / n as f64), ti) * ds;
             evals += 1;
         }
+        t += l / env.speed_mps;
         for &(cc, rb) in &ctx.ws.near {
             if dist_point_segment(cc, p, q) < rb {
                 hard += 1;

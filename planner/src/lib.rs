@@ -7,6 +7,7 @@
 
 pub mod bisection;
 pub mod cost;
+pub mod detour;
 pub mod export;
 pub mod geometry;
 pub mod insertion;
@@ -18,14 +19,19 @@ pub mod reactive;
 pub mod replan;
 pub mod simplify;
 pub mod stack;
+pub mod tangent;
 pub mod termination;
 pub mod turn;
+pub mod verify;
 
 pub use insertion::{Circle, InsertOutcome, insert_waypoint};
 pub use mission::{Aircraft, Cylinder, FlyZone, Mission, Waypoint};
 pub use plan::{
     AircraftState, Plan, PlanOutcome, PlanParams, PlanRequest, Strategy, plan, plan_until,
 };
-pub use replan::{Dynamic, DynamicSeen, Replan, ReplanConfig, Replanned, SeenObstacle, replan};
+pub use replan::{
+    Dynamic, DynamicSeen, LiveMap, Replan, ReplanConfig, Replanned, SeenObstacle, live_map, replan,
+};
 pub use stack::{ItemKind, StackDiff, StackItem, diff};
 pub use termination::Termination;
+pub use verify::{Conflict, Verification, VerifyParams, verify_route};

@@ -55,6 +55,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::bisection::{BisectionParams, Workspace, bisect_leg};
 use crate::cost::{LegEnv, PathRisk, better};
+use crate::detour::{DetourParams, detour_candidates};
 use crate::geometry::{Point, dist};
 use crate::mission::{Aircraft, Mission, Zones, cylinder_containing};
 use crate::prepass::{PrepassParams, prepass_leg};
@@ -62,6 +63,7 @@ use crate::simplify::simplify_path;
 use crate::stack::{ItemKind, StackDiff, StackItem, diff, mission_stack};
 use crate::termination::Termination;
 use crate::turn::turn_violations;
+use crate::verify::{Conflict, Verification, VerifyParams, verify_route};
 
 /// Where the aircraft is now (from the latest telemetry).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,8 +112,17 @@ pub struct PlanParams {
     /// Obstacle variability hint in `[0, 1]` (e.g. from the predictor's stage);
     /// `None` = derived per leg from the risk bound.
     pub variability: Option<f64>,
-    /// Spacing of risk evaluations when scoring whole plans, metres. Default 10.
+    /// Spacing of risk evaluations when simplifying, metres. Default 10.
     pub eval_step_m: f64,
+    /// Verification of candidate routes (spacing 3 m).
+    pub verify: VerifyParams,
+    /// Detour lattice of the safety net.
+    pub detour: DetourParams,
+    /// The stack being flown is kept while it is clear and at most this fraction longer
+    /// than the best new route (plus [`PlanParams::keep_slack_m`]). Default 0.05.
+    pub keep_slack: f64,
+    /// See [`PlanParams::keep_slack`], metres. Default 30.
+    pub keep_slack_m: f64,
 }
 
 impl Default for PlanParams {
@@ -124,6 +135,10 @@ impl Default for PlanParams {
             safe_risk: 0.05,
             variability: None,
             eval_step_m: 10.0,
+            verify: VerifyParams::default(),
+            detour: DetourParams::default(),
+            keep_slack: 0.05,
+            keep_slack_m: 30.0,
         }
     }
 }
@@ -186,8 +201,9 @@ pub struct PlanRequest<'a> {
 #[cfg_attr(feature = "serde", serde(tag = "status", rename_all = "snake_case"))]
 #[non_exhaustive]
 pub enum PlanOutcome {
-    /// Every leg clear of every cylinder, inside the fly zone, peak risk <= `safe_risk`,
-    /// search completed.
+    /// Verified clear ([`crate::verify`]): flown forward from the aircraft's position and
+    /// heading, no cylinder entered, inside the fly zone, every item reachable at the turn
+    /// radius, peak risk <= `safe_risk`; search completed.
     Exact,
     /// Clear and safe, but the deadline cut a search short: the best found so far.
     Approximate,
@@ -226,8 +242,8 @@ pub struct Plan {
     pub current_index: usize,
     /// Tail rewrite from the request's stack to `items`.
     pub diff: StackDiff,
-    /// Peak risk along the remaining route within the horizon (1 when it enters a cylinder
-    /// or leaves the fly zone).
+    /// Peak risk along the remaining route within the horizon, as verified (1 when it
+    /// enters a cylinder, leaves the fly zone or holds a turn the aircraft cannot fly).
     pub risk: f64,
     /// Risk exposure along the remaining route, metres at risk 1.
     pub exposure_m: f64,
@@ -239,8 +255,10 @@ pub struct Plan {
     pub added: usize,
     /// Stack indices of avoid items whose turns the aircraft cannot fly at its radius.
     pub turn_violations: Vec<usize>,
-    /// Risk-field evaluations spent searching.
+    /// Risk-field evaluations spent searching (and candidates verified).
     pub evaluations: u64,
+    /// How the returned route was verified (flown forward and checked densely).
+    pub verification: Verification,
     /// The seed used.
     pub seed: u64,
 }
@@ -255,6 +273,10 @@ pub enum PlanError {
     /// A position, altitude or time is NaN or infinite: fix the caller's data.
     #[error("non-finite input: {0}")]
     NonFinite(&'static str),
+    /// The mission's risk-map grid cannot be built (degenerate fly-zone bounds): fix the
+    /// mission's fly zone.
+    #[error("risk map: {0}")]
+    RiskMap(String),
 }
 
 /// SplitMix64 finaliser: decorrelates derived seeds.
@@ -329,7 +351,6 @@ pub fn plan_until(
     };
 
     let base_tail: Vec<StackItem> = stack[ci..].to_vec();
-    let base_risk = route_risk(&env_at, s, &base_tail, p.eval_step_m);
 
     let mut evaluations = 0u64;
     let mut searched_all = true;
@@ -351,7 +372,14 @@ pub fn plan_until(
         for &(idx, item) in &fixed {
             let alt = prev_alt.min(item.alt_m);
             let env = env_at(alt);
-            let pre = prepass_leg(prev, item.p_m, alt, cylinders, &zones, &p.prepass);
+            let mut pre = prepass_leg(prev, item.p_m, alt, cylinders, &zones, &p.prepass);
+            if pre.blocked {
+                // Complete around cylinders: the tangent graph finds a clear route when the
+                // insertion could not (crate::tangent).
+                if let Some(route) = tangent_route(prev, item.p_m, alt, cylinders, &zones) {
+                    pre.inserted = route;
+                }
+            }
             let mut pts = Vec::with_capacity(pre.inserted.len() + 2);
             pts.push(prev);
             pts.extend_from_slice(&pre.inserted);
@@ -426,18 +454,53 @@ pub fn plan_until(
         );
     }
 
-    // Keep the best of: the full plan, the pre-pass only, the unmodified stack.
+    // Every candidate is flown forward and checked densely (crate::verify); the best
+    // verified one wins. The stack being flown is kept while it stays clear unless a new
+    // route is clearly shorter (stable plans: the diff stays small).
+    let turn_r = req.aircraft.turn_radius_m;
+    let verify =
+        |tail: &[StackItem]| verify_route(&env_at, s, tail, speed, turn_r, p.safe_risk, &p.verify);
+    let v_base = verify(&base_tail);
     let mut best_tail = base_tail.clone();
-    let mut best = base_risk;
+    let mut best = v_base;
     for cand in [&prepass_tail, &full_tail] {
         if cand.is_empty() && !base_tail.is_empty() {
             continue;
         }
-        let r = route_risk(&env_at, s, cand, p.eval_step_m);
-        if better(&r, &best) {
-            best = r;
+        let v = verify(cand);
+        if v.better_than(&best, p.safe_risk) {
+            best = v;
             best_tail = cand.clone();
         }
+    }
+    if p.strategy == Strategy::Bisection && !best.is_clear(p.safe_risk) && !term.should_stop() {
+        // The safety net: detours through one or two avoid points before the first fixed
+        // item after the first conflict (crate::detour).
+        let target = first_fixed_after_conflict(&best_tail, &best, s, speed);
+        if let Some(target) = target {
+            let alt = s.alt_m.min(best_tail[target].alt_m);
+            for cand in detour_candidates(
+                s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.prepass, &p.detour,
+            ) {
+                if term.should_stop() {
+                    timed_out = true;
+                    break;
+                }
+                evaluations += 1;
+                let v = verify(&cand);
+                if v.better_than(&best, p.safe_risk) {
+                    best = v;
+                    best_tail = cand;
+                }
+            }
+        }
+    }
+    if best_tail != base_tail
+        && v_base.is_clear(p.safe_risk)
+        && v_base.length_m <= best.length_m * (1.0 + p.keep_slack) + p.keep_slack_m
+    {
+        best = v_base;
+        best_tail = base_tail.clone();
     }
 
     let mut items = stack[..ci].to_vec();
@@ -451,7 +514,7 @@ pub fn plan_until(
         .map(|v| ci + v.index - 1)
         .collect();
 
-    let safe = best.hard_violations == 0 && best.peak <= p.safe_risk;
+    let safe = best.is_clear(p.safe_risk);
     let outcome = if let Some(c) = cylinder_containing(cylinders, s.p_m, s.alt_m) {
         PlanOutcome::StartInsideObstacle { cylinder: c }
     } else if !zones.contains(s.p_m) {
@@ -482,15 +545,84 @@ pub fn plan_until(
         diff: diff(stack, &items),
         items,
         current_index: ci,
-        risk: best.peak,
+        risk: risk_of(&best),
         exposure_m: best.exposure_m,
-        base_risk: base_risk.peak,
+        base_risk: risk_of(&v_base),
         length_m: best.length_m,
+        verification: best,
         added,
         turn_violations: turn_bad,
         evaluations,
         seed: req.seed,
     })
+}
+
+/// The tangent graph's route from `a` to `b` at `alt_m` around the cylinders inside the
+/// fly zone that holds `a` (or the first), `None` when there is none.
+fn tangent_route(
+    a: Point,
+    b: Point,
+    alt_m: f64,
+    cylinders: &[crate::mission::Cylinder],
+    zones: &Zones,
+) -> Option<Vec<Point>> {
+    let g = crate::tangent::TangentGraphParams::default();
+    let circles = crate::tangent::inflated_circles(cylinders, alt_m, &g);
+    let zone: &[Point] = zones
+        .polygons()
+        .iter()
+        .find(|z| z.contains(a))
+        .or(zones.polygons().first())
+        .map_or(&[], |z| z.vertices());
+    crate::tangent::shortest_path(a, b, &circles, zone, &g)
+}
+
+/// The plan's reported risk: 1 with a hard violation, else the verified peak.
+fn risk_of(v: &Verification) -> f64 {
+    if v.hard() > 0 { 1.0 } else { v.peak_risk }
+}
+
+/// Index in `tail` of the first fixed item at or after the first conflict of `v` (the end
+/// of the leg where it happens), or the first fixed item when the conflict's leg is not
+/// known.
+fn first_fixed_after_conflict(
+    tail: &[StackItem],
+    v: &Verification,
+    s: &AircraftState,
+    speed_mps: f64,
+) -> Option<usize> {
+    let leg = match v.conflict? {
+        Conflict::FlyZone { item } | Conflict::Unreachable { item } => item,
+        Conflict::Cylinder { p_m, t_s, .. } | Conflict::Risk { p_m, t_s, .. } => {
+            // The leg the aircraft is on at t_s (on the polyline's clock), or the leg
+            // nearest p_m when the flown path's clock differs.
+            let mut t = s.t_s;
+            let mut prev = s.p_m;
+            let mut found = None;
+            for (i, it) in tail.iter().enumerate() {
+                let dt = dist(prev, it.p_m) / speed_mps;
+                if t_s <= t + dt + 1e-9 {
+                    found = Some(i);
+                    break;
+                }
+                t += dt;
+                prev = it.p_m;
+            }
+            found.unwrap_or_else(|| {
+                let mut prev = s.p_m;
+                let mut best = (f64::INFINITY, 0);
+                for (i, it) in tail.iter().enumerate() {
+                    let d = crate::geometry::dist_point_segment(p_m, prev, it.p_m);
+                    if d < best.0 {
+                        best = (d, i);
+                    }
+                    prev = it.p_m;
+                }
+                best.1
+            })
+        }
+    };
+    (leg..tail.len()).find(|&i| tail[i].is_fixed())
 }
 
 /// Risk of flying from the aircraft state through `tail`, each leg at the lower of its

@@ -3,13 +3,22 @@
 //! simulator's closed-loop bisection strategy, so both plan the same way.
 //!
 //! Contract:
-//! - Dynamic risk comes from one of [`Dynamic`]: a `&mut Predictor` whose cached risk map
-//!   is built or updated here (threat-filtered against the remaining route, anchored at
-//!   `t0_s`; what the simulator does), an already built `&RiskMap` with the summaries of
-//!   the obstacles it covers (an immutable live snapshot; what the server does), or none.
+//! - Dynamic risk comes from one of [`Dynamic`]: a `&Predictor` whose live map
+//!   ([`live_map`]) is built here (what the simulator does), an already built `&RiskMap`
+//!   with the summaries of the obstacles it covers (the server's live snapshot, built by the
+//!   same [`live_map`]), or none.
+//! - The live map ([`live_map`]) is anchored at the newest observation, covers every
+//!   obstacle observed within the horizon before it (older ones are stale), and is not
+//!   threat-filtered: a detour meets every obstacle the predictor knows, never only those
+//!   near the route it replaces.
 //! - The risk-map grid of a mission is [`ReplanConfig::map_config`]: the bounding box of
 //!   the fly zones and home (the ENU origin) plus `margin_m`, so a live map cached
 //!   elsewhere uses the same cells as a map built here.
+//! - 3-D (DESIGN.md "Frames, units, time": a sphere matters if the leg's altitude is within
+//!   its radius of its centre): an obstacle whose observed altitude band, grown by its
+//!   radius, the map's buffer and [`VERTICAL_MARGIN_M`], does not reach the altitudes of
+//!   the route still to fly (the aircraft's and the remaining items') is taken out of the
+//!   map this plan uses; the aircraft passes over or under it.
 //! - The least predictable stage among the obstacles in the map sets the sample budget
 //!   ([`predictor::Stage::variability`]).
 //! - [`Replanned::dynamic`] says what dynamic risk the plan saw: each obstacle with its
@@ -29,6 +38,10 @@ use crate::termination::Termination;
 
 /// Risk-map slice interval, seconds.
 pub const SLICE_DT_S: f64 = 1.0;
+
+/// An obstacle may leave its observed altitude band by this much within the horizon,
+/// metres (the judges' tours change altitude slowly between their waypoints).
+pub const VERTICAL_MARGIN_M: f64 = 10.0;
 
 /// The one set of replanning parameters (server and simulator share [`Default`]).
 #[derive(Debug, Clone, PartialEq)]
@@ -53,6 +66,13 @@ impl Default for ReplanConfig {
 }
 
 impl ReplanConfig {
+    /// An obstacle whose newest observation is older than the newest observation of all by
+    /// more than this is stale: left out of the live map (its prediction has expired).
+    /// The horizon, seconds.
+    pub fn stale_after_s(&self) -> f64 {
+        self.plan.horizon_s
+    }
+
     /// Sets the horizon of both the map and the search, seconds.
     pub fn horizon_s(mut self, h: f64) -> Self {
         self.plan.horizon_s = h;
@@ -76,17 +96,14 @@ impl ReplanConfig {
 }
 
 /// Where dynamic risk comes from.
-#[derive(Debug)]
 pub enum Dynamic<'a> {
     /// No moving obstacle: static planning only.
     None,
-    /// Build or update `predictor`'s cached map anchored at `t0_s`.
-    Predictor {
-        /// The predictor.
-        predictor: &'a mut Predictor,
-        /// Slice-0 time, seconds.
-        t0_s: f64,
-    },
+    /// Build `predictor`'s live map ([`live_map`]).
+    Predictor(&'a Predictor),
+    /// A given risk field, e.g. the simulator's ground truth for its oracle (no stage: the
+    /// largest sample budget).
+    Field(&'a dyn RiskField),
     /// An already built map and the obstacles it was built from (or more).
     Map {
         /// The map.
@@ -94,6 +111,20 @@ pub enum Dynamic<'a> {
         /// Summaries of the observed obstacles.
         obstacles: &'a [ObstacleSummary],
     },
+}
+
+impl std::fmt::Debug for Dynamic<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::None => f.write_str("None"),
+            Self::Predictor(_) => f.write_str("Predictor(..)"),
+            Self::Field(_) => f.write_str("Field(..)"),
+            Self::Map { obstacles, .. } => f
+                .debug_struct("Map")
+                .field("obstacles", &obstacles.len())
+                .finish_non_exhaustive(),
+        }
+    }
 }
 
 /// One obstacle as the plan saw it.
@@ -107,6 +138,8 @@ pub struct SeenObstacle {
     pub in_map: bool,
     /// Whether it passed the map's threat filter (contributes risk).
     pub threat: bool,
+    /// Whether it was taken out because its altitudes cannot reach the route's.
+    pub altitude_clear: bool,
 }
 
 /// What dynamic risk a plan saw.
@@ -148,19 +181,72 @@ pub struct Replanned {
     pub dynamic: DynamicSeen,
 }
 
-/// The remaining route from the aircraft: its position then the stack from
-/// `current_index` (the threat filter's intended path).
-pub fn remaining_route(
-    state: &AircraftState,
-    stack: &[StackItem],
-    current_index: usize,
-) -> Vec<[f64; 2]> {
-    std::iter::once(state.p_m)
-        .chain(stack.iter().skip(current_index).map(|i| i.p_m))
+/// A mission's live risk map and the obstacles in it.
+#[derive(Debug, Clone)]
+pub struct LiveMap {
+    /// Slice-0 time: the newest observation, seconds.
+    pub t0_s: f64,
+    /// Obstacles in the map (observed at or after `t0_s - stale_after_s`), ascending.
+    pub ids: Vec<String>,
+    /// The map.
+    pub map: RiskMap,
+}
+
+/// The obstacles of `predictor` observed at or after `since_t_s`, ascending by id.
+pub fn fresh_ids(predictor: &Predictor, since_t_s: f64) -> Vec<String> {
+    predictor
+        .obstacles()
+        .filter(|o| o.last_observation.t_s >= since_t_s)
+        .map(|o| o.id)
         .collect()
 }
 
-fn seen(map: &RiskMap, obstacles: &[ObstacleSummary]) -> DynamicSeen {
+/// Builds the map from obstacles `ids` (ascending) of `predictor` anchored at `t0_s`, one
+/// obstacle at a time: the same cells, bit for bit, whoever builds it (a full rebuild).
+///
+/// # Errors
+/// An invalid configuration (a mission whose bounds are degenerate).
+pub fn build_map(
+    predictor: &Predictor,
+    cfg: &RiskMapConfig,
+    ids: &[String],
+    t0_s: f64,
+) -> Result<RiskMap, predictor::RiskMapError> {
+    let mut map = RiskMap::new(cfg.clone(), &[], t0_s)?;
+    for id in ids {
+        predictor.update_map_obstacle(&mut map, id);
+    }
+    Ok(map)
+}
+
+/// The live map of `mission` (see the module docs): anchored at `predictor`'s newest
+/// observation, every obstacle observed within the horizon before it, on
+/// [`ReplanConfig::map_config`]'s grid. `None` without observations.
+///
+/// # Errors
+/// An invalid configuration (a mission whose bounds are degenerate).
+pub fn live_map(
+    predictor: &Predictor,
+    mission: &Mission,
+    cfg: &ReplanConfig,
+) -> Result<Option<LiveMap>, predictor::RiskMapError> {
+    let Some(t0_s) = predictor.latest_t_s() else {
+        return Ok(None);
+    };
+    let ids = fresh_ids(predictor, t0_s - cfg.stale_after_s());
+    let map = build_map(predictor, &cfg.map_config(mission), &ids, t0_s)?;
+    Ok(Some(LiveMap { t0_s, ids, map }))
+}
+
+/// Whether obstacle `o` can come within its radius plus `buffer_m` of altitudes
+/// `[lo_m, hi_m]` (see the module docs).
+pub fn reaches_altitudes(o: &ObstacleSummary, lo_m: f64, hi_m: f64, buffer_m: f64) -> bool {
+    let reach = o.last_observation.radius_m + buffer_m + VERTICAL_MARGIN_M;
+    let [a, b] = o.alt_range_m;
+    a - reach <= hi_m && b + reach >= lo_m
+}
+
+fn seen(map: &RiskMap, obstacles: &[ObstacleSummary], dropped: &[String]) -> DynamicSeen {
     let in_map: Vec<(&str, bool)> = map.obstacles().collect();
     let mut var: Option<f64> = None;
     let obstacles = obstacles
@@ -176,6 +262,7 @@ fn seen(map: &RiskMap, obstacles: &[ObstacleSummary]) -> DynamicSeen {
                 stage: o.stage,
                 in_map: hit.is_some(),
                 threat: hit.is_some_and(|(_, t)| *t),
+                altitude_clear: dropped.contains(&o.id),
             }
         })
         .collect();
@@ -203,20 +290,62 @@ pub fn replan(
     } else {
         r.stack
     };
+    // The altitudes still to fly.
+    let (mut lo, mut hi) = (r.state.alt_m, r.state.alt_m);
+    for it in stack.iter().skip(r.current_index) {
+        lo = lo.min(it.alt_m);
+        hi = hi.max(it.alt_m);
+    }
+    let buffer = cfg.map.buffer_m;
+    let out_of_reach = |obstacles: &[ObstacleSummary]| -> Vec<String> {
+        obstacles
+            .iter()
+            .filter(|o| !reaches_altitudes(o, lo, hi, buffer))
+            .map(|o| o.id.clone())
+            .collect()
+    };
+    let built: RiskMap;
     let (risk, dynamic): (&dyn RiskField, DynamicSeen) = match dynamic {
         Dynamic::None => (&NoRisk, DynamicSeen::default()),
-        Dynamic::Predictor { predictor, t0_s } => {
+        Dynamic::Predictor(predictor) => {
             let summaries: Vec<ObstacleSummary> = predictor.obstacles().collect();
-            if summaries.is_empty() {
-                (&NoRisk, DynamicSeen::default())
-            } else {
-                let route = remaining_route(&r.state, stack, r.current_index);
-                let map = predictor.risk_map(&cfg.map_config(r.mission), &route, t0_s);
-                let s = seen(map, &summaries);
-                (map, s)
+            let dropped = out_of_reach(&summaries);
+            match live_map(predictor, r.mission, cfg) {
+                Ok(Some(mut live)) => {
+                    for id in &dropped {
+                        live.map.remove_obstacle(id);
+                    }
+                    built = live.map;
+                    (&built, seen(&built, &summaries, &dropped))
+                }
+                Ok(None) => (&NoRisk, DynamicSeen::default()),
+                Err(e) => return Err(PlanError::RiskMap(e.to_string())),
             }
         }
-        Dynamic::Map { map, obstacles } => (map, seen(map, obstacles)),
+        Dynamic::Field(field) => (
+            field,
+            DynamicSeen {
+                map_used: true,
+                obstacles: Vec::new(),
+                variability: Some(1.0),
+            },
+        ),
+        Dynamic::Map { map, obstacles } => {
+            let dropped: Vec<String> = out_of_reach(obstacles)
+                .into_iter()
+                .filter(|id| map.obstacles().any(|(m, _)| m == id))
+                .collect();
+            if dropped.is_empty() {
+                (map, seen(map, obstacles, &dropped))
+            } else {
+                let mut m = map.clone();
+                for id in &dropped {
+                    m.remove_obstacle(id);
+                }
+                built = m;
+                (&built, seen(&built, obstacles, &dropped))
+            }
+        }
     };
     let mut params = cfg.plan;
     params.strategy = r.strategy;

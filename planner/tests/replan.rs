@@ -88,24 +88,18 @@ fn the_predictor_path_and_the_prebuilt_map_path_give_the_same_plan() {
     let cfg = config();
     let r = request(&m, &stack, 5);
 
-    let mut sim_side = fed_predictor();
+    let sim_side = fed_predictor();
     let a = replan(
         &r,
-        Dynamic::Predictor {
-            predictor: &mut sim_side,
-            t0_s: 10.0,
-        },
+        Dynamic::Predictor(&sim_side),
         &cfg,
         &Termination::none(),
     )
     .unwrap();
 
-    // The server's side: a full build from a snapshot's predictor on the mission's grid.
+    // The server's side: the live snapshot's map, built from its own predictor.
     let snap = fed_predictor();
-    let route = planner::replan::remaining_route(&r.state, &stack, 1);
-    let map = snap
-        .build_risk_map(&cfg.map_config(&m), &route, 10.0)
-        .unwrap();
+    let map = planner::live_map(&snap, &m, &cfg).unwrap().unwrap().map;
     let summaries: Vec<_> = snap.obstacles().collect();
     let b = replan(
         &r,
@@ -137,13 +131,10 @@ fn the_seam_is_deterministic_for_a_seed_and_reports_no_map_without_obstacles() {
     let stack = mission_stack(&m);
     let cfg = config();
     let run = |seed| {
-        let mut p = fed_predictor();
+        let p = fed_predictor();
         replan(
             &request(&m, &stack, seed),
-            Dynamic::Predictor {
-                predictor: &mut p,
-                t0_s: 10.0,
-            },
+            Dynamic::Predictor(&p),
             &cfg,
             &Termination::none(),
         )

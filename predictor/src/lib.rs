@@ -16,6 +16,7 @@
 pub mod estimate;
 pub mod field;
 pub mod motion;
+pub mod periodic;
 pub mod predictor;
 pub mod risk_map;
 pub mod stage;
@@ -25,6 +26,7 @@ pub mod track;
 pub use estimate::{Estimates, EstimatorConfig};
 pub use field::{NoRisk, RiskField};
 pub use motion::MotionModel;
+pub use periodic::{Lap, PeriodicConfig};
 pub use predictor::{
     ConstantVelocityField, ObstacleSummary, Predictor, PredictorConfig,
     RULES_MAX_OBSTACLE_SPEED_MPS,

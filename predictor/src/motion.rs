@@ -52,6 +52,9 @@ pub struct MotionModel {
     slice_of_bin: Vec<usize>,
     /// Bin of the most recent turn sample.
     last_bin: Option<usize>,
+    /// A recognized lap of a periodic tour: when set, positions after `t_s` are replayed
+    /// from the obstacle's own earlier lap ([`crate::periodic`]) instead of propagated.
+    pub lap: Option<crate::periodic::Lap>,
 }
 
 fn cdf_u32(p: &[f64]) -> Vec<u32> {
@@ -101,6 +104,7 @@ impl MotionModel {
             cdf,
             slice_of_bin: (0..cfg.turn_bins).map(|b| slice_of(b, cfg)).collect(),
             last_bin: hist.last_bin,
+            lap: None,
         }
     }
 

@@ -23,10 +23,12 @@
 use crate::estimate::{self, Estimates, EstimatorConfig, TurnSampler, TurnSummary};
 use crate::field::RiskField;
 use crate::motion::MotionModel;
+use crate::periodic::{Lap, PeriodicConfig, find_lap};
 use crate::risk_map::{ObstacleInput, RiskMap, RiskMapConfig};
 use crate::stage::{Characterizer, Stage, StageChange, StageConfig, TurnHistogram};
 use crate::track::{Observation, ObserveOutcome, Track};
 use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
 use std::collections::{BTreeMap, BTreeSet};
 
 /// 40 knots, the rules' maximum moving-obstacle speed, in m/s.
@@ -53,6 +55,9 @@ pub struct PredictorConfig {
     /// Pin every obstacle to this stage (the simulator compares fixed stages). A track with
     /// fewer than 2 observations is NoFly regardless. Default `None` (automatic staging).
     pub forced_stage: Option<Stage>,
+    /// Lap search of periodic tours ([`crate::periodic`]); `None` disables it. Not used
+    /// with a forced stage. Default on.
+    pub periodic: Option<PeriodicConfig>,
 }
 
 impl Default for PredictorConfig {
@@ -65,6 +70,7 @@ impl Default for PredictorConfig {
             estimator: EstimatorConfig::default(),
             stages: StageConfig::default(),
             forced_stage: None,
+            periodic: Some(PeriodicConfig::default()),
         }
     }
 }
@@ -105,6 +111,10 @@ pub struct ObstacleSummary {
     pub turn_samples: usize,
     /// The newest observation.
     pub last_observation: Observation,
+    /// Lowest and highest observed centre altitude, metres (as observed).
+    pub alt_range_m: [f64; 2],
+    /// The lap of a periodic tour it flies, when recognized ([`crate::periodic`]).
+    pub lap: Option<Lap>,
     /// Every stage change with its statistic, oldest first.
     pub stage_history: Vec<StageChange>,
 }
@@ -229,7 +239,23 @@ impl Predictor {
         n: usize,
         rng: &mut R,
     ) -> Option<Vec<[f64; 2]>> {
-        Some(self.obstacles.get(id)?.model.sample_future(dt_s, n, rng))
+        let ob = self.obstacles.get(id)?;
+        if let Some(lap) = ob.model.lap {
+            return Some(sample_lap(
+                &lap,
+                &ob.track,
+                dt_s,
+                n,
+                rng,
+                &ob.model,
+                self.periodic_gap_s(),
+            ));
+        }
+        Some(ob.model.sample_future(dt_s, n, rng))
+    }
+
+    fn periodic_gap_s(&self) -> f64 {
+        self.cfg.periodic.map_or(5.0, |p| p.max_gap_s)
     }
 
     /// As [`Predictor::sample_future`], with the model of `stage` instead of the current one.
@@ -338,6 +364,36 @@ impl Predictor {
     }
 }
 
+/// `n` positions `dt_s` after the newest observation replayed from `lap`, spread as
+/// [`Lap::sigma_m`] and [`Lap::jitter_s`] say (the model's own propagation where the track
+/// has a gap).
+fn sample_lap<R: Rng + ?Sized>(
+    lap: &Lap,
+    track: &Track,
+    dt_s: f64,
+    n: usize,
+    rng: &mut R,
+    model: &MotionModel,
+    max_gap_s: f64,
+) -> Vec<[f64; 2]> {
+    let Some(base) = lap.position(track, dt_s, max_gap_s) else {
+        return model.sample_future(dt_s, n, rng);
+    };
+    let ahead = lap.position(track, dt_s + 0.5, max_gap_s).unwrap_or(base);
+    let behind = lap.position(track, dt_s - 0.5, max_gap_s).unwrap_or(base);
+    let vel = [ahead[0] - behind[0], ahead[1] - behind[1]];
+    let (sig, jit) = (lap.sigma_m(dt_s), lap.jitter_s(dt_s));
+    (0..n)
+        .map(|_| {
+            let [zt, zx, zy]: [f64; 3] = std::array::from_fn(|_| StandardNormal.sample(&mut *rng));
+            [
+                base[0] + vel[0] * zt * jit + zx * sig,
+                base[1] + vel[1] * zt * jit + zy * sig,
+            ]
+        })
+        .collect()
+}
+
 fn input<'a>(id: &'a str, o: &'a Obstacle) -> ObstacleInput<'a> {
     ObstacleInput {
         id,
@@ -405,6 +461,9 @@ fn refresh(ob: &mut Obstacle, cfg: &PredictorConfig, samples_changed: bool) {
         cfg.nofly_speed_mps(),
         &cfg.stages,
     );
+    if cfg.forced_stage.is_none() && stage != Stage::NoFly {
+        ob.model.lap = cfg.periodic.and_then(|pc| find_lap(&ob.track, &pc));
+    }
 }
 
 fn effective_stage(ob: &Obstacle, cfg: &PredictorConfig) -> Stage {
@@ -424,6 +483,14 @@ fn summary(id: &str, ob: &Obstacle) -> ObstacleSummary {
         flagged: ob.track.flagged(),
         turn_samples: ob.sampler.samples().len(),
         last_observation: *ob.track.last().expect("non-empty"),
+        alt_range_m: ob
+            .track
+            .observations()
+            .iter()
+            .fold([f64::INFINITY, f64::NEG_INFINITY], |r, o| {
+                [r[0].min(o.alt_m), r[1].max(o.alt_m)]
+            }),
+        lap: ob.model.lap,
         stage_history: ob.stages.history().to_vec(),
     }
 }

@@ -2,7 +2,9 @@
 //! algorithm"): for slices `t_k = t0 + k * dt` over the horizon, the probability that a
 //! point lies within some obstacle's radius plus the safety buffer.
 //!
-//! Per obstacle, particles propagated with its stage's motion model are splatted with a
+//! Per obstacle, particles propagated with its stage's motion model (or, for an obstacle
+//! on a recognized periodic tour, replayed from its earlier lap with a timing and position
+//! spread, [`crate::periodic`]) are splatted with a
 //! precomputed disc stencil of radius `radius + buffer` (a cell counts when its centre is
 //! within that distance of the particle's cell centre); each particle carries `1/N` of the
 //! mass. A NoFly obstacle is an analytic disc growing at the NoFly speed, evaluated at query
@@ -24,7 +26,9 @@
 //! 2.5-3.0 ms, 24-34 ms and 16-56 M/s with 5 m cells in every slice):
 //! - one dense `f32` grid per slice holding `q = prod(1 - p_i)`; a query is the slice's
 //!   geometry (a small per-slice array of reciprocal cell size, width, height and offset)
-//!   and one load (`risk = 1 - q`, nearest slice and nearest cell);
+//!   and one load per slice (`risk = 1 - q`, nearest cell); between two slice times the
+//!   worse of the two bracketing slices answers (conservative in time: a fast obstacle
+//!   moves more than the buffer in half a slice);
 //! - per obstacle and slice, runs of consecutive cells with a `u16` particle count per
 //!   cell (`p = count / particles`, exact, so mass is conserved exactly); `1 - p`
 //!   (clamped to at least 1e-6) and its inverse come from tables, so an obstacle's
@@ -59,6 +63,10 @@ use crate::stage::Stage;
 use crate::track::Track;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+/// Largest observation gap a lap replay interpolates across, seconds.
+const LAP_MAX_GAP_S: f64 = 5.0;
 use std::collections::BTreeMap;
 
 /// Risk-map parameters, with documented defaults.
@@ -675,6 +683,15 @@ impl RiskMap {
         let n = self.cfg.particles;
         let mut rng = ChaCha8Rng::seed_from_u64(self.cfg.seed ^ fnv1a(o.id));
         let mut prop = Propagator::new(o.model, n, &mut rng);
+        // A periodic tour's particles: a fixed timing and position deviate each, scaled by
+        // the lap's spread at each slice (crate::periodic).
+        let lap_z: Vec<[f64; 3]> = if o.model.lap.is_some() {
+            (0..n)
+                .map(|_| std::array::from_fn(|_| StandardNormal.sample(&mut rng)))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let all = n as u32;
         c.slice_start.push(0);
         for k in 0..self.n_slices {
@@ -689,6 +706,28 @@ impl RiskMap {
                 self.add_particle(p, all);
             } else if o.model.speed_mps <= 0.0 {
                 self.add_particle(o.model.position_m, all);
+            } else if let Some(replay) = o.model.lap.and_then(|lap| {
+                let s = tk - o.model.t_s;
+                let base = lap.position(o.track, s, LAP_MAX_GAP_S)?;
+                let ahead = lap
+                    .position(o.track, s + 0.5, LAP_MAX_GAP_S)
+                    .unwrap_or(base);
+                let behind = lap
+                    .position(o.track, s - 0.5, LAP_MAX_GAP_S)
+                    .unwrap_or(base);
+                Some((base, [ahead[0] - behind[0], ahead[1] - behind[1]], lap, s))
+            }) {
+                let (base, vel, lap, s) = replay;
+                let (sig, jit) = (lap.sigma_m(s), lap.jitter_s(s));
+                for z in &lap_z {
+                    self.add_particle(
+                        [
+                            base[0] + vel[0] * z[0] * jit + z[1] * sig,
+                            base[1] + vel[1] * z[0] * jit + z[2] * sig,
+                        ],
+                        1,
+                    );
+                }
             } else {
                 prop.advance_to(tk, &mut rng);
                 for i in 0..n {
@@ -931,10 +970,10 @@ impl RiskMap {
     }
 }
 
-impl RiskField for RiskMap {
+impl RiskMap {
+    /// Risk of slice `k` at `p_m` (grid and NoFly discs).
     #[inline]
-    fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
-        let k = self.slice_index(t_s);
+    fn slice_risk(&self, p_m: [f64; 2], k: usize) -> f64 {
         let g = &self.geo[k];
         let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
         let fy = (p_m[1] - self.cfg.min_m[1]) * g.inv_cell;
@@ -948,6 +987,38 @@ impl RiskField for RiskMap {
         if !self.discs.is_empty() && r < 1.0 {
             r = r.max(self.disc_risk(p_m, k));
         }
+        r
+    }
+
+    /// The slices bracketing `t_s`: `(k, k)` at a slice time (or outside the horizon),
+    /// else `(k, k + 1)` with `t_k < t_s < t_(k+1)`.
+    #[inline]
+    fn bracket(&self, t_s: f64) -> (usize, usize) {
+        let f = (t_s - self.t0_s) * self.inv_dt;
+        if f <= 0.0 {
+            return (0, 0);
+        }
+        let k = f.floor();
+        let last = self.n_slices - 1;
+        let k0 = (k as usize).min(last);
+        if f - k < 1e-6 || k0 == last {
+            (k0, k0)
+        } else {
+            (k0, k0 + 1)
+        }
+    }
+}
+
+impl RiskField for RiskMap {
+    /// The worse of the two slices bracketing `t_s` (a 40 kt obstacle moves 10 m in half
+    /// a 1 s slice, more than the buffer: reading the nearest slice alone could miss it).
+    #[inline]
+    fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
+        let (k0, k1) = self.bracket(t_s);
+        let mut r = self.slice_risk(p_m, k0);
+        if k1 != k0 && r < 1.0 {
+            r = r.max(self.slice_risk(p_m, k1));
+        }
         r.clamp(0.0, 1.0)
     }
 
@@ -955,7 +1026,10 @@ impl RiskField for RiskMap {
     /// meets the segment's bounding box in a slice the segment's times map to; 1 if the
     /// segment comes within a NoFly disc.
     fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
-        let (ka, kb) = (self.slice_index(t0_s), self.slice_index(t1_s));
+        let (ka, kb) = (
+            self.bracket(t0_s.min(t1_s)).0,
+            self.bracket(t0_s.max(t1_s)).1,
+        );
         let (k0, k1) = (ka.min(kb), ka.max(kb));
         let sb = [
             a_m[0].min(b_m[0]),

@@ -98,6 +98,30 @@ pub struct SteerOverride {
     pub until_s: f64,
 }
 
+impl AircraftParams {
+    /// The planner's view of this aircraft: cruise speed and minimum turn radius.
+    pub fn planner_aircraft(&self) -> planner::Aircraft {
+        planner::Aircraft {
+            speed_mps: self.speed_mps,
+            turn_radius_m: self.min_turn_radius_m(),
+        }
+    }
+}
+
+impl AircraftState {
+    /// The planner's view of this state, as telemetry reports it (the simulator's heading is
+    /// counter-clockwise from east; the planner's is a compass heading, clockwise from north).
+    pub fn planner_state(&self) -> planner::AircraftState {
+        planner::AircraftState {
+            p_m: [self.p_m[0], self.p_m[1]],
+            alt_m: self.p_m[2],
+            heading_rad: std::f64::consts::FRAC_PI_2 - self.heading_rad,
+            speed_mps: self.speed_mps,
+            t_s: self.t_s,
+        }
+    }
+}
+
 /// The autopilot: follows the stack with L1 guidance.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Autopilot {
@@ -171,7 +195,7 @@ impl Autopilot {
             (Some(s), _) if s.until_s > self.state.t_s => {
                 s.turn_rate_rad_s.clamp(-omega_max, omega_max)
             }
-            (_, Some(t)) => self.l1_lateral_accel_mps2(xy(t.p_m)) / self.params.speed_mps,
+            (_, Some(t)) => self.l1_lateral_accel_mps2(t.p_m) / self.params.speed_mps,
             (_, None) => 0.0,
         };
         if self.steer.is_some_and(|s| s.until_s <= self.state.t_s) {
@@ -183,7 +207,7 @@ impl Autopilot {
         self.state.p_m[1] += v * dt_s * mid.sin();
         self.state.heading_rad = wrap_pi(self.state.heading_rad + omega * dt_s);
         if let Some(t) = target {
-            let dz = t.p_m[2] - self.state.p_m[2];
+            let dz = t.alt_m - self.state.p_m[2];
             let max_dz = self.params.climb_rate_mps * dt_s;
             self.state.p_m[2] += dz.clamp(-max_dz, max_dz);
         }
@@ -194,7 +218,7 @@ impl Autopilot {
                 break;
             };
             let pos = xy(self.state.p_m);
-            let tp = xy(t.p_m);
+            let tp = t.p_m;
             let within = dist(pos, tp) <= self.params.acceptance_radius_m;
             let leg = sub(tp, self.leg_start_m);
             let passed = norm(leg) > 1e-6 && dot(sub(pos, tp), unit(leg)) > 0.0;
@@ -224,7 +248,7 @@ impl Autopilot {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mission::{ItemKind, StackItem};
+    use crate::mission::StackItem;
 
     #[test]
     fn the_default_aircraft_turns_no_tighter_than_its_bank_allows() {
@@ -242,10 +266,7 @@ mod tests {
         let mut ap = Autopilot::new(params, [0.0, 100.0, 100.0], [1.0, 100.0]);
         ap.leg_start_m = [0.0, 0.0];
         let mut stack = Stack {
-            items: vec![StackItem {
-                p_m: [2000.0, 0.0, 100.0],
-                kind: ItemKind::Mission(0),
-            }],
+            items: vec![StackItem::mission(0, [2000.0, 0.0], 100.0)],
             current: 0,
         };
         let mut max_xt_late: f64 = 0.0;

@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 use crate::aircraft::{AircraftParams, Autopilot, SteerOverride};
 use crate::geometry::xy;
 use crate::lidar::{cross_sections, scan};
-use crate::mission::ItemKind;
+use crate::mission::{ItemKind, initial_stack, straight_length_m};
 use crate::scenario::Scenario;
 use crate::scoring::{JudgeReport, judge};
 use crate::strategy::{Command, StrategyKind, View};
@@ -135,9 +135,9 @@ pub fn run_with_streams(
     cfg: &RunConfig,
 ) -> RunResult {
     let m = &scenario.mission;
-    let mut stack = m.initial_stack();
-    let first = stack.target().map_or(xy(m.start_m), |t| xy(t.p_m));
-    let mut ap = Autopilot::new(cfg.aircraft, m.start_m, first);
+    let mut stack = initial_stack(m);
+    let first = stack.target().map_or(xy(scenario.start_m), |t| t.p_m);
+    let mut ap = Autopilot::new(cfg.aircraft, scenario.start_m, first);
     let mut strat = strategy.build(scenario.seed ^ 0x5EED_0F5A);
     let lidar = strat.lidar();
     let period = strat.period_s();
@@ -189,6 +189,7 @@ pub fn run_with_streams(
                 stack: &stack,
                 tracks: &tracks,
                 scan: sc.as_ref(),
+                truth: &scenario.spheres,
             };
             let t0 = Instant::now();
             let cmd = strat.decide(&view);
@@ -247,7 +248,7 @@ pub fn run_with_streams(
         judge_tel.push((ap.state.t_s, ap.state.p_m));
     }
     let jr = judge(&judge_tel, scenario, m);
-    let straight = m.straight_length_m();
+    let straight = straight_length_m(m, scenario.start_m);
     let metrics = RunMetrics {
         sphere_score: jr.sphere_score,
         cylinder_score: jr.cylinder_score,

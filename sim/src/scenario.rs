@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::behaviour::{Behaviour, BehaviourKind, Trajectory, TurningStart, trajectory};
 use crate::geometry::{P2, dist, point_in_polygon, xy};
-use crate::mission::{Cylinder, Mission};
+use crate::mission::{Cylinder, FlyZone, Mission, Waypoint, bounds_m, fly_zone, straight_length_m};
 use crate::spline::SplineTour;
 
 /// Feet to metres.
@@ -133,8 +133,10 @@ pub struct Scenario {
     pub family: Family,
     /// Seed it was drawn with.
     pub seed: u64,
-    /// The mission.
+    /// The mission (the planner's own type).
     pub mission: Mission,
+    /// Where the aircraft starts (take-off or hand-over point), ENU metres and MSL.
+    pub start_m: [f64; 3],
     /// Moving spheres.
     pub spheres: Vec<MovingSphere>,
     /// Time limit of a run (and span of the truth), seconds.
@@ -144,7 +146,7 @@ pub struct Scenario {
 /// Generates the scenario `(family, seed)`.
 pub fn generate(family: Family, seed: u64, params: &ScenarioParams) -> Scenario {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5CE7_A210);
-    let mission = random_mission(params, &mut rng);
+    let (mission, start_m) = random_mission(params, &mut rng);
     let n = if family == Family::Static {
         0
     } else {
@@ -152,6 +154,7 @@ pub fn generate(family: Family, seed: u64, params: &ScenarioParams) -> Scenario 
     };
     with_moving_spheres_rng(
         mission,
+        start_m,
         family,
         seed,
         n,
@@ -160,9 +163,11 @@ pub fn generate(family: Family, seed: u64, params: &ScenarioParams) -> Scenario 
     )
 }
 
-/// Adds `n_spheres` moving spheres of `family` to a given (e.g. real) mission.
+/// Adds `n_spheres` moving spheres of `family` to a given (e.g. real) mission flown from
+/// `start_m` (ENU metres and MSL).
 pub fn with_moving_spheres(
     mission: Mission,
+    start_m: [f64; 3],
     family: Family,
     seed: u64,
     n_spheres: usize,
@@ -171,6 +176,7 @@ pub fn with_moving_spheres(
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0B57_AC1E);
     with_moving_spheres_rng(
         mission,
+        start_m,
         family,
         seed,
         n_spheres.min(10),
@@ -181,30 +187,33 @@ pub fn with_moving_spheres(
 
 fn with_moving_spheres_rng(
     mission: Mission,
+    start_m: [f64; 3],
     family: Family,
     seed: u64,
     n_spheres: usize,
     aircraft_speed_mps: f64,
     rng: &mut ChaCha8Rng,
 ) -> Scenario {
-    let duration_s = (3.0 * mission.straight_length_m() / aircraft_speed_mps + 60.0).ceil();
+    let duration_s =
+        (3.0 * straight_length_m(&mission, start_m) / aircraft_speed_mps + 60.0).ceil();
     let spheres = if family == Family::Static {
         vec![]
     } else {
         (0..n_spheres)
-            .map(|_| random_sphere(&mission, family, duration_s, rng))
+            .map(|_| random_sphere(&mission, start_m, family, duration_s, rng))
             .collect()
     };
     Scenario {
         family,
         seed,
         mission,
+        start_m,
         spheres,
         duration_s,
     }
 }
 
-fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> Mission {
+fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> (Mission, [f64; 3]) {
     // star-shaped zone: 10 vertices at jittered angles and radii
     let r0 = rng.random_range(params.zone_radius_m.0..params.zone_radius_m.1);
     let nv = 10;
@@ -240,11 +249,18 @@ fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> Miss
         }
     }
     let mut mission = Mission {
-        fly_zone_m,
-        alt_min_m: 100.0 * FT,
-        alt_max_m: 750.0 * FT,
-        start_m,
-        waypoints_m,
+        fly_zones: vec![FlyZone {
+            boundary_m: fly_zone_m,
+            alt_min_m: 100.0 * FT,
+            alt_max_m: 750.0 * FT,
+        }],
+        waypoints: waypoints_m
+            .iter()
+            .map(|w| Waypoint {
+                p_m: [w[0], w[1]],
+                alt_m: w[2],
+            })
+            .collect(),
         cylinders: vec![],
     };
     let nc = rng
@@ -256,13 +272,13 @@ fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> Miss
         let radius_m = rng.random_range(RADIUS_RANGE_M.0..RADIUS_RANGE_M.1);
         let top_m = rng.random_range(CYL_TOP_RANGE_M.0..CYL_TOP_RANGE_M.1);
         let center_m = if rng.random::<f64>() < params.cylinders_on_legs {
-            let k = rng.random_range(0..mission.waypoints_m.len());
+            let k = rng.random_range(0..mission.waypoints.len());
             let a = if k == 0 {
-                xy(mission.start_m)
+                xy(start_m)
             } else {
-                xy(mission.waypoints_m[k - 1])
+                mission.waypoints[k - 1].p_m
             };
-            let b = xy(mission.waypoints_m[k]);
+            let b = mission.waypoints[k].p_m;
             let f = rng.random_range(0.25..0.75);
             let d = crate::geometry::unit(crate::geometry::sub(b, a));
             let off = rng.random_range(-0.6..0.6) * radius_m;
@@ -273,14 +289,14 @@ fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> Miss
         } else {
             sample_inside(rng)
         };
-        let clear_of_points = std::iter::once(xy(mission.start_m))
-            .chain(mission.waypoints_m.iter().map(|w| xy(*w)))
+        let clear_of_points = std::iter::once(xy(start_m))
+            .chain(mission.waypoints.iter().map(|w| w.p_m))
             .all(|w| dist(w, center_m) > radius_m + 40.0);
         let clear_of_others = mission
             .cylinders
             .iter()
             .all(|c| dist(c.center_m, center_m) > c.radius_m + radius_m + 30.0);
-        if clear_of_points && clear_of_others && point_in_polygon(center_m, &mission.fly_zone_m) {
+        if clear_of_points && clear_of_others && point_in_polygon(center_m, fly_zone(&mission)) {
             mission.cylinders.push(Cylinder {
                 center_m,
                 radius_m,
@@ -288,11 +304,12 @@ fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> Miss
             });
         }
     }
-    mission
+    (mission, start_m)
 }
 
 fn random_sphere<R: Rng + ?Sized>(
     mission: &Mission,
+    start_m: [f64; 3],
     family: Family,
     duration_s: f64,
     rng: &mut R,
@@ -308,13 +325,13 @@ fn random_sphere<R: Rng + ?Sized>(
     let radius_m = rng.random_range(RADIUS_RANGE_M.0..RADIUS_RANGE_M.1);
     // speeds mostly in the upper half of the rules' range: slow obstacles are trivial
     let speed_mps = rng.random_range(0.25 * SPEED_RANGE_MPS.1..SPEED_RANGE_MPS.1);
-    let (lo, hi) = mission.bounds_m();
+    let (lo, hi) = bounds_m(mission);
     let center = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
     let half = [(hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0];
-    let start_xy = mission.start_m;
+    let start_xy = start_m;
     // most points near a mission leg (within 200 m of it), the rest anywhere in the bounds
-    let legs: Vec<(P2, P2)> = std::iter::once(xy(mission.start_m))
-        .chain(mission.waypoints_m.iter().map(|w| xy(*w)))
+    let legs: Vec<(P2, P2)> = std::iter::once(xy(start_m))
+        .chain(mission.waypoints.iter().map(|w| w.p_m))
         .collect::<Vec<_>>()
         .windows(2)
         .map(|w| (w[0], w[1]))
@@ -338,8 +355,8 @@ fn random_sphere<R: Rng + ?Sized>(
         }
     };
     let mission_alt = |rng: &mut R| {
-        let w = mission.waypoints_m[rng.random_range(0..mission.waypoints_m.len())];
-        w[2] + rng.random_range(-0.5..0.5) * radius_m
+        let w = mission.waypoints[rng.random_range(0..mission.waypoints.len())];
+        w.alt_m + rng.random_range(-0.5..0.5) * radius_m
     };
     let behaviour = match kind {
         BehaviourKind::Straight => Behaviour::Straight {
@@ -402,9 +419,9 @@ mod tests {
             for c in &s.mission.cylinders {
                 assert!(c.radius_m >= RADIUS_RANGE_M.0 && c.radius_m <= RADIUS_RANGE_M.1);
                 assert!(c.top_m >= CYL_TOP_RANGE_M.0 && c.top_m <= CYL_TOP_RANGE_M.1);
-                for w in &s.mission.waypoints_m {
+                for w in &s.mission.waypoints {
                     assert!(
-                        dist(xy(*w), c.center_m) > c.radius_m,
+                        dist(w.p_m, c.center_m) > c.radius_m,
                         "waypoint inside a cylinder"
                     );
                 }
@@ -414,8 +431,8 @@ mod tests {
                 assert!(sp.speed_mps <= SPEED_RANGE_MPS.1 + 1e-9);
                 assert!(sp.track.duration_s() >= s.duration_s - 1e-9);
             }
-            for w in &s.mission.waypoints_m {
-                assert!(point_in_polygon(xy(*w), &s.mission.fly_zone_m));
+            for w in &s.mission.waypoints {
+                assert!(point_in_polygon(w.p_m, fly_zone(&s.mission)));
             }
         }
     }

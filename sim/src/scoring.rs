@@ -12,7 +12,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{P2, point_in_polygon, xy};
-use crate::mission::{Cylinder, Mission};
+use crate::mission::{Cylinder, Mission, altitude_band_m, fly_zone};
 
 /// Interpolation step of the judges, seconds.
 pub const JUDGE_STEP_S: f64 = 0.1;
@@ -121,11 +121,16 @@ pub fn judge(
     spheres: &dyn SphereTruth,
     mission: &Mission,
 ) -> JudgeReport {
+    let waypoints_m: Vec<[f64; 3]> = mission
+        .waypoints
+        .iter()
+        .map(|w| [w.p_m[0], w.p_m[1], w.alt_m])
+        .collect();
     judge_points(
         &interpolate(telemetry),
         spheres,
         &mission.cylinders,
-        &mission.waypoints_m,
+        &waypoints_m,
         Some(mission),
     )
 }
@@ -169,7 +174,8 @@ pub fn judge_points(
             }
         }
         if let Some(m) = mission {
-            let out = !in_zone(xy(p), &m.fly_zone_m) || p[2] < m.alt_min_m || p[2] > m.alt_max_m;
+            let (alt_min_m, alt_max_m) = altitude_band_m(m);
+            let out = !in_zone(xy(p), fly_zone(m)) || p[2] < alt_min_m || p[2] > alt_max_m;
             if out {
                 boundary_violation_s += JUDGE_STEP_S;
                 if !was_out {

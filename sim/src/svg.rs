@@ -5,6 +5,7 @@
 use std::fmt::Write;
 
 use crate::geometry::xy;
+use crate::mission::{bounds_m, fly_zone};
 use crate::run::RunResult;
 use crate::scenario::Scenario;
 
@@ -16,7 +17,7 @@ const COLORS: [&str; 10] = [
 /// An SVG document (about 800 px wide) of `run` on `scenario`.
 pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
     let m = &scenario.mission;
-    let (mut lo, mut hi) = m.bounds_m();
+    let (mut lo, mut hi) = bounds_m(m);
     for p in &run.track {
         lo = [lo[0].min(p[1]), lo[1].min(p[2])];
         hi = [hi[0].max(p[1]), hi[1].max(p[2])];
@@ -37,8 +38,7 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
         height + 40.0
     );
     let _ = writeln!(s, r##"<rect width="100%" height="100%" fill="#ffffff"/>"##);
-    let zone: Vec<String> = m
-        .fly_zone_m
+    let zone: Vec<String> = fly_zone(m)
         .iter()
         .map(|p| format!("{:.1},{:.1}", tx(p[0]), ty(p[1])))
         .collect();
@@ -48,9 +48,9 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
         zone.join(" ")
     );
     let min_alt = m
-        .waypoints_m
+        .waypoints
         .iter()
-        .map(|w| w[2])
+        .map(|w| w.alt_m)
         .fold(f64::INFINITY, f64::min);
     for (i, c) in m.cylinders.iter().enumerate() {
         let hit = run.judge.cylinder_hits.get(i).copied().unwrap_or(false);
@@ -113,8 +113,8 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
         );
     }
     // mission legs
-    let legs: Vec<String> = std::iter::once(m.start_m)
-        .chain(m.waypoints_m.iter().copied())
+    let legs: Vec<String> = std::iter::once(xy(scenario.start_m))
+        .chain(m.waypoints.iter().map(|w| w.p_m))
         .map(|p| format!("{:.1},{:.1}", tx(p[0]), ty(p[1])))
         .collect();
     let _ = writeln!(
@@ -153,7 +153,8 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
             );
         }
     }
-    for (i, w) in m.waypoints_m.iter().enumerate() {
+    for (i, w) in m.waypoints.iter().enumerate() {
+        let w = [w.p_m[0], w.p_m[1], w.alt_m];
         let got = run
             .judge
             .waypoints_captured
@@ -173,7 +174,7 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
             w[2]
         );
     }
-    let st = xy(m.start_m);
+    let st = xy(scenario.start_m);
     let _ = writeln!(
         s,
         r##"<rect x="{:.1}" y="{:.1}" width="8" height="8" fill="#000"/>"##,

@@ -90,7 +90,7 @@ pub struct SimulateArgs {
 ///
 /// # Errors
 /// A message naming the problem.
-pub fn load_mission(path: &Path) -> Result<sim::mission::Mission, String> {
+pub fn load_mission(path: &Path) -> Result<(sim::mission::Mission, [f64; 3]), String> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     let m = wire::domain::read_mission_text(&text, "simulate")
@@ -99,10 +99,7 @@ pub fn load_mission(path: &Path) -> Result<sim::mission::Mission, String> {
     let pm = m.to_planner();
     let start = m.frame().to_enu(home.lat, home.lon);
     let alt = pm.waypoints[0].alt_m;
-    Ok(sim::mission::Mission::from_planner(
-        &pm,
-        [start[0], start[1], alt],
-    ))
+    Ok((pm, [start[0], start[1], alt]))
 }
 
 /// Runs the subcommand.
@@ -155,8 +152,9 @@ pub fn run(args: SimulateArgs) -> ExitCode {
     };
     let make = |family: Family, seed: u64| -> Scenario {
         match &mission {
-            Some(m) => with_moving_spheres(
+            Some((m, start_m)) => with_moving_spheres(
                 m.clone(),
+                *start_m,
                 family,
                 seed,
                 args.spheres,
@@ -249,7 +247,8 @@ fn write_outputs(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sim::geometry::{point_in_polygon, xy};
+    use sim::geometry::point_in_polygon;
+    use sim::mission::{altitude_band_m, bounds_m, fly_zone};
 
     #[test]
     fn the_first_seed_is_plotted_unless_told_otherwise() {
@@ -274,20 +273,25 @@ mod tests {
     fn the_webster_field_fixture_loads_into_the_simulators_enu_mission() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../tests/fixtures/interop/mission_2021_webster_field.json");
-        let m = load_mission(&path).unwrap();
-        assert_eq!(m.waypoints_m.len(), 14);
+        let (m, _start) = load_mission(&path).unwrap();
+        assert_eq!(m.waypoints.len(), 14);
         assert_eq!(m.cylinders.len(), 6);
-        assert_eq!(m.fly_zone_m.len(), 12);
+        assert_eq!(fly_zone(&m).len(), 12);
         // 100-750 ft band, waypoint altitudes 200-400 ft
-        assert!((m.alt_min_m - 30.48).abs() < 1e-9 && (m.alt_max_m - 228.6).abs() < 1e-9);
-        assert!(m.waypoints_m.iter().all(|w| w[2] >= 60.9 && w[2] <= 121.93));
+        let (lo_m, hi_m) = altitude_band_m(&m);
+        assert!((lo_m - 30.48).abs() < 1e-9 && (hi_m - 228.6).abs() < 1e-9);
+        assert!(
+            m.waypoints
+                .iter()
+                .all(|w| w.alt_m >= 60.9 && w.alt_m <= 121.93)
+        );
         // every waypoint inside the zone, the field about 1.2 km across
         assert!(
-            m.waypoints_m
+            m.waypoints
                 .iter()
-                .all(|w| point_in_polygon(xy(*w), &m.fly_zone_m))
+                .all(|w| point_in_polygon(w.p_m, fly_zone(&m)))
         );
-        let (lo, hi) = m.bounds_m();
+        let (lo, hi) = bounds_m(&m);
         assert!(
             hi[0] - lo[0] > 800.0 && hi[0] - lo[0] < 2000.0,
             "{lo:?} {hi:?}"

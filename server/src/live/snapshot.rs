@@ -64,23 +64,8 @@ pub fn predictor_config() -> PredictorConfig {
     PredictorConfig::default()
 }
 
-/// Builds a map anchored at `t0_s` from the obstacles `ids` (ascending, as a full rebuild
-/// orders them) of `predictor`: the same cells, bit for bit, whoever builds it.
-///
-/// # Errors
-/// An invalid configuration (a mission whose bounds are degenerate).
-pub fn build_map(
-    predictor: &Predictor,
-    cfg: &RiskMapConfig,
-    ids: &[String],
-    t0_s: f64,
-) -> Result<RiskMap, predictor::RiskMapError> {
-    let mut map = RiskMap::new(cfg.clone(), &[], t0_s)?;
-    for id in ids {
-        predictor.update_map_obstacle(&mut map, id);
-    }
-    Ok(map)
-}
+/// The one live-map rule of server and simulator (anchor, fresh obstacles, full build).
+pub use planner::replan::{build_map, fresh_ids};
 
 /// One mission's live state as of batch `seq`.
 #[derive(Debug, Clone)]
@@ -146,15 +131,6 @@ impl Snapshot {
             build_ms: 0.0,
         }
     }
-}
-
-/// Ids (ascending) of the obstacles whose newest observation is at or after `since_t_s`.
-pub fn fresh_ids(predictor: &Predictor, since_t_s: f64) -> Vec<String> {
-    predictor
-        .obstacles()
-        .filter(|o| o.last_observation.t_s >= since_t_s)
-        .map(|o| o.id)
-        .collect()
 }
 
 #[cfg(test)]

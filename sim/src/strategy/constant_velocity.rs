@@ -159,7 +159,7 @@ impl Strategy for ConstantVelocity {
         let g = self.graph;
         let route = |a: P2, b: P2, alt: f64| {
             let circles = inflated_circles(&m.cylinders, alt, &g);
-            shortest_path(a, b, &circles, &m.fly_zone_m, &g).unwrap_or_default()
+            shortest_path(a, b, &circles, crate::mission::fly_zone(m), &g).unwrap_or_default()
         };
         let own = xy(view.own.p_m);
         let base = rebuild_tail(view.stack, own, |a, b, alt, _| route(a, b, alt));
@@ -184,14 +184,14 @@ impl Strategy for ConstantVelocity {
         let Some(first) = base.remaining().first() else {
             return Command::Replace(base);
         };
-        let alt = first.p_m[2];
+        let alt = first.alt_m;
         let mut best: Option<(f64, Stack)> = None;
         let base_len =
             crate::geometry::polyline_length(&pts.iter().map(|p| xy(*p)).collect::<Vec<_>>());
         for side in [1.0, -1.0] {
             for k in [1.0, 1.5, 2.0, 3.0] {
                 let w = add(centre, scale(perp_left(dir), side * r * k));
-                if !point_in_polygon(w, &m.fly_zone_m) {
+                if !point_in_polygon(w, crate::mission::fly_zone(m)) {
                     continue;
                 }
                 let circles = inflated_circles(&m.cylinders, alt, &g);
@@ -201,26 +201,17 @@ impl Strategy for ConstantVelocity {
                 // own -> (route) -> w -> (route) -> rest of the base tail
                 let mut items: Vec<StackItem> = base.items[..base.current].to_vec();
                 for q in route(own, w, alt) {
-                    items.push(StackItem {
-                        p_m: [q[0], q[1], alt],
-                        kind: ItemKind::Avoid,
-                    });
+                    items.push(StackItem::avoid(q, alt));
                 }
-                items.push(StackItem {
-                    p_m: [w[0], w[1], alt],
-                    kind: ItemKind::Avoid,
-                });
+                items.push(StackItem::avoid(w, alt));
                 let first_mission = base
                     .remaining()
                     .iter()
                     .position(|it| it.kind != ItemKind::Avoid)
                     .unwrap_or(0);
                 let tgt = base.remaining()[first_mission];
-                for q in route(w, xy(tgt.p_m), alt) {
-                    items.push(StackItem {
-                        p_m: [q[0], q[1], alt],
-                        kind: ItemKind::Avoid,
-                    });
+                for q in route(w, tgt.p_m, alt) {
+                    items.push(StackItem::avoid(q, alt));
                 }
                 items.extend_from_slice(&base.remaining()[first_mission..]);
                 let cand = Stack {

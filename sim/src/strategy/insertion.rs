@@ -2,10 +2,8 @@
 //! every blocking cylinder, buffer 20% of the radius), run once at the first call; cylinders
 //! never move, so later calls keep the stack.
 
-use super::planner_adapter::{
-    from_planner_stack, to_planner_aircraft, to_planner_mission, to_planner_stack, to_planner_state,
-};
 use super::{Command, Strategy, View};
+use crate::mission::Stack;
 
 /// Seed 004 insertion only.
 #[derive(Debug, Clone, Default)]
@@ -22,19 +20,20 @@ impl Strategy for Insertion {
             return Command::Keep;
         }
         self.done = true;
-        let mission = to_planner_mission(view.mission);
-        let stack = to_planner_stack(view.stack);
         let req = planner::PlanRequest {
-            mission: &mission,
-            aircraft: to_planner_aircraft(view.aircraft),
-            stack: &stack,
+            mission: view.mission,
+            aircraft: view.aircraft.planner_aircraft(),
+            stack: &view.stack.items,
             current_index: view.stack.current,
-            state: to_planner_state(&view.own),
+            state: view.own.planner_state(),
             params: planner::PlanParams::default().strategy(planner::Strategy::Insertion),
             seed: 0,
         };
         match planner::plan(&req, &predictor::NoRisk) {
-            Ok(p) => Command::Replace(from_planner_stack(&p.items, p.current_index)),
+            Ok(p) => Command::Replace(Stack {
+                items: p.items,
+                current: p.current_index,
+            }),
             Err(_) => Command::Keep,
         }
     }

@@ -12,12 +12,13 @@ use serde::{Deserialize, Serialize};
 use crate::aircraft::{AircraftParams, AircraftState};
 use crate::lidar::{LidarParams, Scan};
 use crate::mission::{Mission, Stack};
+use crate::scenario::MovingSphere;
 use crate::telemetry::ObstacleObservation;
 
 pub mod bisection;
 pub mod constant_velocity;
 pub mod insertion;
-pub mod planner_adapter;
+pub mod oracle;
 pub mod reactive;
 pub mod route;
 pub mod tangent;
@@ -39,6 +40,8 @@ pub struct View<'a> {
     pub tracks: &'a [&'a [ObstacleObservation]],
     /// The latest LiDAR scan, when the strategy asked for a scanner.
     pub scan: Option<&'a Scan>,
+    /// Ground truth of the moving spheres: only the oracle may look.
+    pub truth: &'a [MovingSphere],
 }
 
 /// A strategy's answer.
@@ -103,11 +106,13 @@ pub enum StrategyKind {
     ReactiveOffset,
     /// Tangent graph plus the onboard sector avoider on a LiDAR.
     ReactiveSectors,
+    /// Monte Carlo bisection against the spheres' true future: the ceiling.
+    Oracle,
 }
 
 impl StrategyKind {
     /// Every strategy, in report order.
-    pub const ALL: [StrategyKind; 11] = [
+    pub const ALL: [StrategyKind; 12] = [
         Self::None,
         Self::Insertion,
         Self::Tangent,
@@ -119,6 +124,7 @@ impl StrategyKind {
         Self::BisectionAuto,
         Self::ReactiveOffset,
         Self::ReactiveSectors,
+        Self::Oracle,
     ];
 
     /// Command-line name.
@@ -135,6 +141,7 @@ impl StrategyKind {
             Self::BisectionAuto => "mc-auto",
             Self::ReactiveOffset => "offset",
             Self::ReactiveSectors => "sectors",
+            Self::Oracle => "oracle",
         }
     }
 
@@ -154,6 +161,7 @@ impl StrategyKind {
             Self::BisectionAuto => Box::new(bisection::Bisection::new(None, seed)),
             Self::ReactiveOffset => Box::new(reactive::Offset::default()),
             Self::ReactiveSectors => Box::new(reactive::Sectors::default()),
+            Self::Oracle => Box::new(oracle::Oracle::new(seed)),
         }
     }
 }

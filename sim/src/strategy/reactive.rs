@@ -32,7 +32,7 @@ fn tangent_stack(view: &View<'_>, g: &TangentGraphParams) -> Stack {
     let m = view.mission;
     rebuild_tail(view.stack, xy(view.own.p_m), |a, b, alt, _| {
         let circles = inflated_circles(&m.cylinders, alt, g);
-        shortest_path(a, b, &circles, &m.fly_zone_m, g).unwrap_or_default()
+        shortest_path(a, b, &circles, crate::mission::fly_zone(m), g).unwrap_or_default()
     })
 }
 
@@ -89,7 +89,7 @@ impl Strategy for Offset {
             return Command::Keep;
         };
         // one avoidance at a time: while flying toward an inserted point, re-plan only every 3 s
-        let avoiding = target.kind == ItemKind::Avoid && self.inserted.contains(&xy(target.p_m));
+        let avoiding = target.kind == ItemKind::Avoid && self.inserted.contains(&target.p_m);
         if view.t_s - self.last_avoid_s < if avoiding { 3.0 } else { 1.0 } {
             return Command::Keep;
         }
@@ -107,7 +107,7 @@ impl Strategy for Offset {
             return Command::Keep;
         }
         let own = xy(view.own.p_m);
-        let goal = xy(target.p_m);
+        let goal = target.p_m;
         let lookahead = self.offset.lookahead_m.unwrap_or(150.0);
         let goal_distance = dist(own, goal).max(lookahead + 1.0);
         let Ok(plan) = pilot_plan(
@@ -126,17 +126,14 @@ impl Strategy for Offset {
         let rest = view.stack.remaining();
         let skip = rest
             .iter()
-            .take_while(|it| it.kind == ItemKind::Avoid && self.inserted.contains(&xy(it.p_m)))
+            .take_while(|it| it.kind == ItemKind::Avoid && self.inserted.contains(&it.p_m))
             .count();
-        let alt = target.p_m[2];
+        let alt = target.alt_m;
         self.inserted.clear();
         for p in pts.iter().skip(1).take(2) {
             let w = to_world(p.x_m, p.y_m);
             self.inserted.push(w);
-            items.push(StackItem {
-                p_m: [w[0], w[1], alt],
-                kind: ItemKind::Avoid,
-            });
+            items.push(StackItem::avoid(w, alt));
         }
         items.extend_from_slice(&rest[skip..]);
         Command::Replace(Stack {

@@ -5,8 +5,8 @@
 //! dropped; each remaining mission waypoint is joined from the previous point by the
 //! router's intermediate points (flagged [`ItemKind::Avoid`], at the next waypoint's altitude).
 
-use crate::geometry::{P2, xy};
-use crate::mission::{ItemKind, Stack, StackItem};
+use crate::geometry::P2;
+use crate::mission::{ItemKind, Stack, StackItem, item_point};
 
 /// Builds the new stack: `route(from, to, alt_m, leg)` returns intermediate points for the leg
 /// (`leg` = 0 for the leg from the aircraft, 1.. after).
@@ -22,14 +22,11 @@ pub fn rebuild_tail(
         if it.kind == ItemKind::Avoid {
             continue;
         }
-        for q in route(prev, xy(it.p_m), it.p_m[2], leg) {
-            items.push(StackItem {
-                p_m: [q[0], q[1], it.p_m[2]],
-                kind: ItemKind::Avoid,
-            });
+        for q in route(prev, it.p_m, it.alt_m, leg) {
+            items.push(StackItem::avoid(q, it.alt_m));
         }
         items.push(*it);
-        prev = xy(it.p_m);
+        prev = it.p_m;
         leg += 1;
     }
     Stack {
@@ -41,6 +38,6 @@ pub fn rebuild_tail(
 /// The remaining route as points with altitudes, starting at `from`.
 pub fn route_points(stack: &Stack, from_m: [f64; 3]) -> Vec<[f64; 3]> {
     std::iter::once(from_m)
-        .chain(stack.remaining().iter().map(|i| i.p_m))
+        .chain(stack.remaining().iter().map(item_point))
         .collect()
 }

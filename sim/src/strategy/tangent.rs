@@ -31,7 +31,7 @@ impl Strategy for Tangent {
             xy(view.own.p_m),
             |a, b, alt, _| {
                 let circles = inflated_circles(&m.cylinders, alt, &p);
-                shortest_path(a, b, &circles, &m.fly_zone_m, &p).unwrap_or_default()
+                shortest_path(a, b, &circles, crate::mission::fly_zone(m), &p).unwrap_or_default()
             },
         ))
     }

@@ -1,0 +1,413 @@
+//! The avoidance rules of issue 10, each pinned against an independent evaluation (dense
+//! sampling of the returned route against the obstacles' own positions, a grid search for
+//! the existence of a static route), never against the planner's own risk figure.
+
+use planner::geometry::{Point, dist, dist_point_segment, lerp};
+use planner::stack::mission_stack;
+use planner::{
+    Aircraft, AircraftState, Cylinder, Dynamic, FlyZone, ItemKind, Mission, PlanOutcome,
+    PlanParams, PlanRequest, Replan, ReplanConfig, StackItem, Strategy, Termination, Waypoint,
+    plan, replan,
+};
+use predictor::{NoRisk, Observation, Predictor, PredictorConfig};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn aircraft() -> Aircraft {
+    Aircraft {
+        speed_mps: 20.0,
+        turn_radius_m: 40.0,
+    }
+}
+
+fn east_state(t_s: f64) -> AircraftState {
+    AircraftState {
+        p_m: [0.0, 0.0],
+        alt_m: 100.0,
+        heading_rad: std::f64::consts::FRAC_PI_2,
+        speed_mps: 20.0,
+        t_s,
+    }
+}
+
+/// A 2 km leg east at 100 m MSL inside a wide zone.
+fn leg_mission() -> Mission {
+    Mission {
+        fly_zones: vec![FlyZone {
+            boundary_m: vec![
+                [-200.0, -900.0],
+                [2200.0, -900.0],
+                [2200.0, 900.0],
+                [-200.0, 900.0],
+            ],
+            alt_min_m: 0.0,
+            alt_max_m: 500.0,
+        }],
+        cylinders: vec![],
+        waypoints: vec![
+            Waypoint {
+                p_m: [0.0, 0.0],
+                alt_m: 100.0,
+            },
+            Waypoint {
+                p_m: [2000.0, 0.0],
+                alt_m: 100.0,
+            },
+        ],
+    }
+}
+
+/// Feeds obstacle `id` moving from `p0` at `v` (m/s) at altitude `alt`, radius `r`,
+/// observed at 5 Hz for `secs` seconds ending at t = 10 s.
+fn observe_mover(p: &mut Predictor, id: &str, p0: Point, v: Point, alt: f64, r: f64, secs: f64) {
+    let n = (secs * 5.0) as i32;
+    for k in 0..=n {
+        let t = 10.0 - secs + f64::from(k) / 5.0;
+        p.observe(
+            id,
+            Observation {
+                t_s: t,
+                p_m: [p0[0] + v[0] * t, p0[1] + v[1] * t],
+                alt_m: alt,
+                radius_m: r,
+            },
+        );
+    }
+}
+
+fn config() -> ReplanConfig {
+    let mut c = ReplanConfig::default().horizon_s(40.0);
+    c.map = c.map.particles(128);
+    c
+}
+
+fn request<'a>(m: &'a Mission, stack: &'a [StackItem]) -> Replan<'a> {
+    Replan {
+        mission: m,
+        aircraft: aircraft(),
+        state: east_state(10.0),
+        stack,
+        current_index: 1,
+        strategy: Strategy::Bisection,
+        seed: 11,
+    }
+}
+
+/// The route the plan flies: the aircraft's position, then the items from `ci`.
+fn route(s: &AircraftState, items: &[StackItem], ci: usize) -> Vec<Point> {
+    std::iter::once(s.p_m)
+        .chain(items[ci..].iter().map(|i| i.p_m))
+        .collect()
+}
+
+/// Smallest horizontal clearance between the route flown at `speed` from `t0` and a
+/// disc of radius `r` moving as `at(t)`, sampled every metre.
+fn clearance(route: &[Point], t0: f64, speed: f64, r: f64, at: impl Fn(f64) -> Point) -> f64 {
+    let mut t = t0;
+    let mut best = f64::INFINITY;
+    for w in route.windows(2) {
+        let l = dist(w[0], w[1]);
+        let n = l.ceil().max(1.0) as usize;
+        for i in 0..=n {
+            let f = i as f64 / n as f64;
+            best = best.min(dist(lerp(w[0], w[1], f), at(t + f * l / speed)) - r);
+        }
+        t += l / speed;
+    }
+    best
+}
+
+#[test]
+fn a_sphere_above_the_aircrafts_altitude_band_is_not_avoided() {
+    let m = leg_mission();
+    let stack = mission_stack(&m);
+    // Crossing the leg northward at 5 m/s; on the leg (x = 300) when the aircraft is.
+    let crossing = |alt: f64| {
+        let mut p = Predictor::new(PredictorConfig::default());
+        observe_mover(&mut p, "0", [300.0, -125.0], [0.0, 5.0], alt, 20.0, 10.0);
+        p
+    };
+    let cfg = config();
+    let low = crossing(100.0);
+    let a = replan(
+        &request(&m, &stack),
+        Dynamic::Predictor(&low),
+        &cfg,
+        &Termination::none(),
+    )
+    .unwrap();
+    assert!(
+        a.plan.items.iter().any(|i| i.kind == ItemKind::Avoid),
+        "at the aircraft's altitude the sphere is avoided: {:?}",
+        a.plan.items
+    );
+    assert!(!a.dynamic.obstacles[0].altitude_clear);
+
+    // 200 m above: radius 20 + buffer 5 + margin 10 is far from 100 m. Not avoided.
+    let high = crossing(300.0);
+    let b = replan(
+        &request(&m, &stack),
+        Dynamic::Predictor(&high),
+        &cfg,
+        &Termination::none(),
+    )
+    .unwrap();
+    assert_eq!(b.plan.items, stack, "{:?}", b.plan.items);
+    assert_eq!(b.plan.outcome, PlanOutcome::Exact);
+    assert!(b.dynamic.obstacles[0].altitude_clear);
+}
+
+#[test]
+fn a_plan_whose_first_leg_needs_a_turn_tighter_than_the_turn_radius_is_not_exact() {
+    let m = leg_mission();
+    // The aircraft flies east at (0, 0); an avoid item 30 m to its right (south), inside
+    // the 40 m turning circle, then the mission's end.
+    let tight = vec![
+        StackItem::mission(0, [0.0, 0.0], 100.0),
+        StackItem::avoid([10.0, -30.0], 100.0),
+        StackItem::mission(1, [2000.0, 0.0], 100.0),
+    ];
+    let keep = |stack: &[StackItem]| {
+        plan(
+            &PlanRequest {
+                mission: &m,
+                aircraft: aircraft(),
+                stack,
+                current_index: 1,
+                state: east_state(0.0),
+                params: PlanParams::default().strategy(Strategy::None),
+                seed: 1,
+            },
+            &NoRisk,
+        )
+        .unwrap()
+    };
+    let p = keep(&tight);
+    assert_ne!(p.outcome, PlanOutcome::Exact);
+    assert_eq!(p.verification.unreachable, Some(0));
+    // The same item 200 m ahead is flyable: exact.
+    let mut ok = tight.clone();
+    ok[1] = StackItem::avoid([200.0, -30.0], 100.0);
+    assert_eq!(keep(&ok).outcome, PlanOutcome::Exact);
+}
+
+#[test]
+fn a_detour_through_a_slow_sphere_that_a_threat_filter_would_drop_is_caught() {
+    let m = leg_mission();
+    let stack = mission_stack(&m);
+    let mut p = Predictor::new(PredictorConfig::default());
+    // A fast sphere crossing the leg at x = 600 northward, on the leg when the aircraft is.
+    observe_mover(
+        &mut p,
+        "fast",
+        [600.0, -400.0],
+        [0.0, 10.0],
+        100.0,
+        30.0,
+        10.0,
+    );
+    // A nearly still sphere 160 m south of the leg where a detour behind the fast one
+    // goes: out of a threat filter's reach of the base route (radius 30 + buffer 5 +
+    // 0.3 m/s x 40 s = 47 m < 160 m).
+    observe_mover(
+        &mut p,
+        "slow",
+        [800.0, -160.0],
+        [0.3, 0.0],
+        100.0,
+        30.0,
+        10.0,
+    );
+    let cfg = config();
+    let r = request(&m, &stack);
+    let got = replan(&r, Dynamic::Predictor(&p), &cfg, &Termination::none()).unwrap();
+    let rt = route(&r.state, &got.plan.items, got.plan.current_index);
+    // Independently: the route clears both spheres' true positions.
+    let fast = clearance(&rt, 10.0, 20.0, 30.0, |t| [600.0, -400.0 + 10.0 * t]);
+    let slow = clearance(&rt, 10.0, 20.0, 30.0, |t| [800.0 + 0.3 * t, -160.0]);
+    assert!(
+        fast > 0.0 && slow > 0.0,
+        "fast {fast:.1} m, slow {slow:.1} m: {rt:?}"
+    );
+    // Not vacuous: the base route meets the fast sphere.
+    let base = route(&r.state, &stack, 1);
+    assert!(clearance(&base, 10.0, 20.0, 30.0, |t| [600.0, -400.0 + 10.0 * t]) < 0.0);
+    // Both are in the plan's map (no filter on the base route).
+    assert!(got.dynamic.obstacles.iter().all(|o| o.in_map && o.threat));
+
+    // The teeth of this test: with the map threat-filtered against the base route (as jink
+    // did), the slow sphere is left out and the plan flies through it.
+    let mut filtered_p = p.clone();
+    let map = filtered_p
+        .risk_map(&cfg.map_config(&m), &base, 10.0)
+        .clone();
+    let summaries: Vec<_> = p.obstacles().collect();
+    let old = replan(
+        &r,
+        Dynamic::Map {
+            map: &map,
+            obstacles: &summaries,
+        },
+        &cfg,
+        &Termination::none(),
+    )
+    .unwrap();
+    let ort = route(&r.state, &old.plan.items, old.plan.current_index);
+    eprintln!(
+        "filtered: slow {:.1} fast {:.1} {:?}",
+        clearance(&ort, 10.0, 20.0, 30.0, |t| [800.0 + 0.3 * t, -160.0]),
+        clearance(&ort, 10.0, 20.0, 30.0, |t| [600.0, -400.0 + 10.0 * t]),
+        old.plan.outcome
+    );
+    eprintln!(
+        "live: slow {slow:.1} fast {fast:.1} {:?} {rt:?}",
+        got.plan.outcome
+    );
+}
+
+/// An independent existence test for a static route: breadth-first search on a 5 m grid
+/// over the cells outside every inflated circle and inside the rectangle.
+fn grid_path_exists(a: Point, b: Point, circles: &[(Point, f64)], lo: Point, hi: Point) -> bool {
+    let cell = 5.0;
+    let nx = ((hi[0] - lo[0]) / cell) as usize + 1;
+    let ny = ((hi[1] - lo[1]) / cell) as usize + 1;
+    let free = |ix: usize, iy: usize| {
+        let p = [lo[0] + ix as f64 * cell, lo[1] + iy as f64 * cell];
+        circles.iter().all(|(c, r)| dist(p, *c) > *r + cell)
+    };
+    let idx = |p: Point| {
+        (
+            ((p[0] - lo[0]) / cell).round() as usize,
+            ((p[1] - lo[1]) / cell).round() as usize,
+        )
+    };
+    let (s, g) = (idx(a), idx(b));
+    let mut seen = vec![false; nx * ny];
+    let mut queue = std::collections::VecDeque::from([s]);
+    seen[s.1 * nx + s.0] = true;
+    while let Some((x, y)) = queue.pop_front() {
+        if (x, y) == g || (x.abs_diff(g.0) <= 2 && y.abs_diff(g.1) <= 2) {
+            return true;
+        }
+        for (dx, dy) in [(1i64, 0i64), (-1, 0), (0, 1), (0, -1)] {
+            let (xx, yy) = (x as i64 + dx, y as i64 + dy);
+            if xx < 0 || yy < 0 || xx >= nx as i64 || yy >= ny as i64 {
+                continue;
+            }
+            let (xx, yy) = (xx as usize, yy as usize);
+            if !seen[yy * nx + xx] && free(xx, yy) {
+                seen[yy * nx + xx] = true;
+                queue.push_back((xx, yy));
+            }
+        }
+    }
+    false
+}
+
+#[test]
+fn with_cylinders_alone_a_clear_route_is_found_whenever_one_exists() {
+    // Seeded fields of 20 random cylinders in a 1.8 x 1.6 km zone, 5 waypoints (a peer's
+    // benchmark): whenever a grid search finds a route between every pair of consecutive
+    // waypoints around the cylinders inflated as the planner inflates them (20% + 10 m),
+    // the plan must be clear of every cylinder, checked every metre.
+    let (lo, hi) = ([0.0, 0.0], [1800.0, 1600.0]);
+    let mut checked = 0;
+    for seed in 0..40u64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let cylinders: Vec<Cylinder> = (0..20)
+            .map(|_| Cylinder {
+                center_m: [
+                    rng.random_range(100.0..1700.0),
+                    rng.random_range(100.0..1500.0),
+                ],
+                radius_m: rng.random_range(20.0..90.0),
+                top_m: 300.0,
+            })
+            .collect();
+        let waypoints: Vec<Waypoint> = (0..5)
+            .map(|_| Waypoint {
+                p_m: [
+                    rng.random_range(50.0..1750.0),
+                    rng.random_range(50.0..1550.0),
+                ],
+                alt_m: 100.0,
+            })
+            .collect();
+        let inflated: Vec<(Point, f64)> = cylinders
+            .iter()
+            .map(|c| (c.center_m, c.radius_m * 1.2 + 10.0))
+            .collect();
+        let wp_clear = waypoints
+            .iter()
+            .all(|w| inflated.iter().all(|(c, r)| dist(w.p_m, *c) > r + 10.0));
+        if !wp_clear
+            || !waypoints
+                .windows(2)
+                .all(|w| grid_path_exists(w[0].p_m, w[1].p_m, &inflated, lo, hi))
+        {
+            continue;
+        }
+        checked += 1;
+        let m = Mission {
+            fly_zones: vec![FlyZone {
+                boundary_m: vec![
+                    [lo[0], lo[1]],
+                    [hi[0], lo[1]],
+                    [hi[0], hi[1]],
+                    [lo[0], hi[1]],
+                ],
+                alt_min_m: 0.0,
+                alt_max_m: 500.0,
+            }],
+            cylinders: cylinders.clone(),
+            waypoints: waypoints.clone(),
+        };
+        let stack = mission_stack(&m);
+        let d = [
+            waypoints[1].p_m[0] - waypoints[0].p_m[0],
+            waypoints[1].p_m[1] - waypoints[0].p_m[1],
+        ];
+        let st = AircraftState {
+            p_m: waypoints[0].p_m,
+            alt_m: 100.0,
+            heading_rad: d[0].atan2(d[1]),
+            speed_mps: 20.0,
+            t_s: 0.0,
+        };
+        let p = plan(
+            &PlanRequest {
+                mission: &m,
+                aircraft: Aircraft {
+                    speed_mps: 20.0,
+                    turn_radius_m: 35.0,
+                },
+                stack: &stack,
+                current_index: 1,
+                state: st,
+                params: PlanParams::default(),
+                seed,
+            },
+            &NoRisk,
+        )
+        .unwrap();
+        let rt = route(&st, &p.items, 1);
+        for w in rt.windows(2) {
+            for c in &cylinders {
+                let d = dist_point_segment(c.center_m, w[0], w[1]);
+                assert!(
+                    d > c.radius_m,
+                    "seed {seed}: leg {:?} -> {:?} enters a cylinder at {:?} r {:.0} ({:.1} m); outcome {:?}",
+                    w[0],
+                    w[1],
+                    c.center_m,
+                    c.radius_m,
+                    d - c.radius_m,
+                    p.outcome
+                );
+            }
+        }
+        let mission_items: Vec<usize> = p.items.iter().filter_map(|i| i.mission_index).collect();
+        assert_eq!(mission_items, (0..5).collect::<Vec<_>>());
+    }
+    assert!(checked >= 10, "only {checked} fields had a route");
+}

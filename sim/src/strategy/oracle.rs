@@ -1,0 +1,98 @@
+//! The oracle: the ceiling every table is compared with (issue 10). The same aircraft,
+//! replanning period, stack handling and planner as [`super::bisection`], but planning
+//! against the spheres' true future (ground truth) instead of a prediction: the risk field
+//! is 1 inside a sphere (radius plus the same safety buffer as the predictor's map) whose
+//! true altitude at that time is within reach of the route's altitudes, else 0. A hit the
+//! oracle takes is one the planner could not avoid even knowing the future.
+
+use predictor::RiskField;
+
+use super::{Command, Strategy, View};
+use crate::geometry::dist;
+use crate::mission::Stack;
+use crate::scenario::MovingSphere;
+
+/// Ground truth as a risk field for the altitude band `[alt_lo_m, alt_hi_m]`.
+struct Truth<'a> {
+    spheres: &'a [MovingSphere],
+    buffer_m: f64,
+    alt_lo_m: f64,
+    alt_hi_m: f64,
+}
+
+impl RiskField for Truth<'_> {
+    fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
+        for s in self.spheres {
+            let c = s.track.at(t_s);
+            let r = s.radius_m + self.buffer_m;
+            if c[2] + r >= self.alt_lo_m
+                && c[2] - r <= self.alt_hi_m
+                && dist(p_m, [c[0], c[1]]) <= r
+            {
+                return 1.0;
+            }
+        }
+        0.0
+    }
+}
+
+/// Perfect-knowledge replanning through the server's pipeline.
+#[derive(Debug)]
+pub struct Oracle {
+    /// Replanning parameters (the server's).
+    pub config: planner::ReplanConfig,
+    /// Replanning period, seconds.
+    pub period_s: f64,
+    seed: u64,
+    calls: u64,
+}
+
+impl Oracle {
+    /// A fresh oracle.
+    pub fn new(seed: u64) -> Self {
+        Self {
+            config: planner::ReplanConfig::default(),
+            period_s: 1.0,
+            seed,
+            calls: 0,
+        }
+    }
+}
+
+impl Strategy for Oracle {
+    fn period_s(&self) -> f64 {
+        self.period_s
+    }
+
+    fn decide(&mut self, view: &View<'_>) -> Command {
+        self.calls += 1;
+        let (mut lo, mut hi) = (view.own.p_m[2], view.own.p_m[2]);
+        for it in view.stack.remaining() {
+            lo = lo.min(it.alt_m);
+            hi = hi.max(it.alt_m);
+        }
+        let truth = Truth {
+            spheres: view.truth,
+            buffer_m: self.config.map.buffer_m,
+            alt_lo_m: lo,
+            alt_hi_m: hi,
+        };
+        let r = planner::Replan {
+            mission: view.mission,
+            aircraft: view.aircraft.planner_aircraft(),
+            state: view.own.planner_state(),
+            stack: &view.stack.items,
+            current_index: view.stack.current,
+            strategy: planner::Strategy::Bisection,
+            seed: planner::plan::leg_seed(self.seed, self.calls as usize, 0),
+        };
+        let dynamic = planner::Dynamic::Field(&truth);
+        match planner::replan(&r, dynamic, &self.config, &planner::Termination::none()) {
+            Ok(p) => Command::Replace(Stack {
+                items: p.plan.items,
+                current: p.plan.current_index,
+            }),
+            Err(_) => Command::Keep,
+        }
+    }
+}
