@@ -15,7 +15,8 @@
 //! are signed counter-clockwise (left) positive; headings in [`Estimates`] are compass
 //! degrees (0 = north, clockwise).
 
-use crate::track::{Track, dist};
+use crate::track::Track;
+use geom::dist;
 use nalgebra::{Matrix3, Vector3};
 
 /// Estimator parameters, with documented defaults.
@@ -180,17 +181,8 @@ fn chord_heading(track: &Track, ta: f64, tb: f64, cfg: &EstimatorConfig) -> Opti
     Some((b[1] - a[1]).atan2(b[0] - a[0]))
 }
 
-/// Wraps an angle to (-pi, pi].
-pub fn wrap_pi(a: f64) -> f64 {
-    let tau = std::f64::consts::TAU;
-    let mut x = a % tau;
-    if x <= -std::f64::consts::PI {
-        x += tau;
-    } else if x > std::f64::consts::PI {
-        x -= tau;
-    }
-    x
-}
+/// Wraps an angle to (-pi, pi] (the workspace's one implementation, in `geom`).
+pub use geom::wrap_pi;
 
 /// Radius of the circle through three points (infinite when they are collinear), metres.
 pub fn circumradius(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> f64 {

@@ -21,7 +21,8 @@
 //! # Units
 //! ENU metres, seconds.
 
-use crate::track::{Track, dist};
+use crate::track::Track;
+use geom::dist;
 
 /// Lap-search parameters, with documented defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -61,6 +61,7 @@ use crate::field::RiskField;
 use crate::motion::{MotionModel, Propagator};
 use crate::stage::Stage;
 use crate::track::Track;
+use geom::dist_point_segment;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
@@ -320,17 +321,6 @@ fn dist_point_polyline(p: [f64; 2], path: &[[f64; 2]]) -> f64 {
     path.windows(2)
         .map(|w| dist_point_segment(p, w[0], w[1]))
         .fold(f64::INFINITY, f64::min)
-}
-
-fn dist_point_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
-    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-    let l2 = dx * dx + dy * dy;
-    let f = if l2 > 0.0 {
-        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - f * dx).hypot(p[1] - a[1] - f * dy)
 }
 
 impl RiskMap {

@@ -5,6 +5,8 @@
 //! # Units
 //! ENU metres, mission seconds, metres per second.
 
+use geom::dist;
+
 /// One observation of an obstacle.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -150,10 +152,6 @@ impl Track {
             a.p_m[1] + (b.p_m[1] - a.p_m[1]) * f,
         ])
     }
-}
-
-pub(crate) fn dist(a: [f64; 2], b: [f64; 2]) -> f64 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
 #[cfg(test)]
