@@ -238,6 +238,17 @@ mod tests {
     use super::*;
     use approx::assert_relative_eq;
 
+    /// Seed 004 with the default 20% buffer, for inputs known to be valid.
+    fn insert(
+        from: Point,
+        to: Point,
+        center_m: Point,
+        radius_m: f64,
+        zone: Option<&[Point]>,
+    ) -> InsertOutcome {
+        insert_waypoint(from, to, Circle { center_m, radius_m }, 0.2, zone).unwrap()
+    }
+
     fn inserted(out: InsertOutcome) -> (Point, [Point; 2], bool) {
         match out {
             InsertOutcome::Inserted {
@@ -262,17 +273,7 @@ mod tests {
         //          via (50,19): 2*sqrt(50^2+19^2) = 2*53.4883 = 106.977 -> f2 wins.
         // Leg (0,0)->(50,-9) distance to (50,5): |50*5 - (-9)*50| / 50.8035 = 700/50.8035
         // = 13.78 >= 12: clear (the foot is at t = 2455/2581 = 0.951, inside the segment).
-        let out = insert_waypoint(
-            [0.0, 0.0],
-            [100.0, 0.0],
-            Circle {
-                center_m: [50.0, 5.0],
-                radius_m: 10.0,
-            },
-            0.2,
-            None,
-        )
-        .unwrap();
+        let out = insert([0.0, 0.0], [100.0, 0.0], [50.0, 5.0], 10.0, None);
         let (f, cands, clear) = inserted(out);
         assert_relative_eq!(cands[0][0], 50.0, epsilon = 1e-9);
         assert_relative_eq!(cands[0][1], 19.0, epsilon = 1e-9);
@@ -292,17 +293,7 @@ mod tests {
         // The same example rotated +90 degrees: w1 = (0,0), w2 = (0,100), obstacle (-5,50).
         // Direction +y, left normal (-1, 0). Secant midpoint (0, 50); candidates at
         // x = -5 +- 14 -> f1 = (-19, 50) (left), f2 = (9, 50). The shorter is (9, 50).
-        let out = insert_waypoint(
-            [0.0, 0.0],
-            [0.0, 100.0],
-            Circle {
-                center_m: [-5.0, 50.0],
-                radius_m: 10.0,
-            },
-            0.2,
-            None,
-        )
-        .unwrap();
+        let out = insert([0.0, 0.0], [0.0, 100.0], [-5.0, 50.0], 10.0, None);
         let (f, cands, _) = inserted(out);
         assert_relative_eq!(cands[0][0], -19.0, epsilon = 1e-9);
         assert_relative_eq!(f[0], 9.0, epsilon = 1e-9);
@@ -313,17 +304,7 @@ mod tests {
     fn a_leg_through_the_centre_gets_symmetric_candidates_and_picks_the_first() {
         // Obstacle on the leg: m = centre = (50,0), candidates (50, +-14), equal detours
         // 2*sqrt(2500+196); the tie keeps the first (left, +y).
-        let out = insert_waypoint(
-            [0.0, 0.0],
-            [100.0, 0.0],
-            Circle {
-                center_m: [50.0, 0.0],
-                radius_m: 10.0,
-            },
-            0.2,
-            None,
-        )
-        .unwrap();
+        let out = insert([0.0, 0.0], [100.0, 0.0], [50.0, 0.0], 10.0, None);
         let (f, _, _) = inserted(out);
         assert_relative_eq!(f[1], 14.0, epsilon = 1e-9);
     }
@@ -331,42 +312,18 @@ mod tests {
     #[test]
     fn tangent_and_missing_legs_need_nothing() {
         // Buffer radius 12 at (50, 12): y = 0 touches it exactly -> not needed.
-        let c = |y: f64| Circle {
-            center_m: [50.0, y],
-            radius_m: 10.0,
-        };
-        let f = |y| insert_waypoint([0.0, 0.0], [100.0, 0.0], c(y), 0.2, None).unwrap();
+        let f = |y| insert([0.0, 0.0], [100.0, 0.0], [50.0, y], 10.0, None);
         assert_eq!(f(12.0), InsertOutcome::NotNeeded);
         assert_eq!(f(30.0), InsertOutcome::NotNeeded);
         // Circle beyond the end of the segment (line hits it, segment does not).
-        let out = insert_waypoint(
-            [0.0, 0.0],
-            [100.0, 0.0],
-            Circle {
-                center_m: [150.0, 0.0],
-                radius_m: 10.0,
-            },
-            0.2,
-            None,
-        )
-        .unwrap();
+        let out = insert([0.0, 0.0], [100.0, 0.0], [150.0, 0.0], 10.0, None);
         assert_eq!(out, InsertOutcome::NotNeeded);
     }
 
     #[test]
     fn an_endpoint_inside_the_buffer_is_an_outcome() {
         // w2 = (100,0) is 11 m from (100, 11): inside the 12 m buffer, outside the 10 m disc.
-        let out = insert_waypoint(
-            [0.0, 0.0],
-            [100.0, 0.0],
-            Circle {
-                center_m: [100.0, 11.0],
-                radius_m: 10.0,
-            },
-            0.2,
-            None,
-        )
-        .unwrap();
+        let out = insert([0.0, 0.0], [100.0, 0.0], [100.0, 11.0], 10.0, None);
         assert_eq!(
             out,
             InsertOutcome::EndpointInBuffer {
@@ -380,32 +337,12 @@ mod tests {
         // As the worked example, but the zone is y in [-5, 100]: (50,-9) is outside,
         // so (50, 19) is chosen although longer.
         let zone = [[-10.0, -5.0], [110.0, -5.0], [110.0, 100.0], [-10.0, 100.0]];
-        let out = insert_waypoint(
-            [0.0, 0.0],
-            [100.0, 0.0],
-            Circle {
-                center_m: [50.0, 5.0],
-                radius_m: 10.0,
-            },
-            0.2,
-            Some(&zone),
-        )
-        .unwrap();
+        let out = insert([0.0, 0.0], [100.0, 0.0], [50.0, 5.0], 10.0, Some(&zone));
         let (f, _, _) = inserted(out);
         assert_relative_eq!(f[1], 19.0, epsilon = 1e-9);
         // A zone excluding both sides: no candidate.
         let thin = [[-10.0, -5.0], [110.0, -5.0], [110.0, 5.0], [-10.0, 5.0]];
-        let out = insert_waypoint(
-            [0.0, 0.0],
-            [100.0, 0.0],
-            Circle {
-                center_m: [50.0, 5.0],
-                radius_m: 10.0,
-            },
-            0.2,
-            Some(&thin),
-        )
-        .unwrap();
+        let out = insert([0.0, 0.0], [100.0, 0.0], [50.0, 5.0], 10.0, Some(&thin));
         assert!(matches!(out, InsertOutcome::NoCandidate { .. }));
     }
 
@@ -415,17 +352,7 @@ mod tests {
         // Secant x = +-12, m = (0,0), candidates (0, +-14).
         // Leg (-15,0)->(0,14): distance from origin = |(-15)*14 - 0*15| / sqrt(15^2+14^2)
         // = 210 / 20.518 = 10.235 < 12: the new leg clips the buffer -> legs_clear = false.
-        let out = insert_waypoint(
-            [-15.0, 0.0],
-            [15.0, 0.0],
-            Circle {
-                center_m: [0.0, 0.0],
-                radius_m: 10.0,
-            },
-            0.2,
-            None,
-        )
-        .unwrap();
+        let out = insert([-15.0, 0.0], [15.0, 0.0], [0.0, 0.0], 10.0, None);
         let (f, _, clear) = inserted(out);
         assert_relative_eq!(f[1].abs(), 14.0, epsilon = 1e-9);
         assert!(!clear);

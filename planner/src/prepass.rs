@@ -145,23 +145,32 @@ mod tests {
     use super::*;
     use crate::geometry::dist_point_segment;
 
+    fn cylinder(center_m: Point, radius_m: f64, top_m: f64) -> Cylinder {
+        Cylinder {
+            center_m,
+            radius_m,
+            top_m,
+        }
+    }
+
+    /// The pre-pass with default parameters and no fly zone.
+    fn prepass(from: Point, to: Point, alt_m: f64, cylinders: &[Cylinder]) -> PrepassLeg {
+        prepass_leg(
+            from,
+            to,
+            alt_m,
+            cylinders,
+            &Zones::default(),
+            &PrepassParams::default(),
+        )
+    }
+
     #[test]
     fn a_short_leg_is_walked_round_the_circle_until_clear() {
         // See insertion::tests::a_short_leg_can_leave_new_legs_inside_the_buffer: one
         // insertion leaves (-15,0)->(0,14) at 10.2 m < 12 m; further rounds fix it.
-        let cyl = [Cylinder {
-            center_m: [0.0, 0.0],
-            radius_m: 10.0,
-            top_m: 100.0,
-        }];
-        let leg = prepass_leg(
-            [-15.0, 0.0],
-            [15.0, 0.0],
-            50.0,
-            &cyl,
-            &Zones::default(),
-            &PrepassParams::default(),
-        );
+        let cyl = [cylinder([0.0, 0.0], 10.0, 100.0)];
+        let leg = prepass([-15.0, 0.0], [15.0, 0.0], 50.0, &cyl);
         assert!(!leg.blocked, "{leg:?}");
         assert!(leg.inserted.len() >= 2);
         let mut pts = vec![[-15.0, 0.0]];
@@ -174,54 +183,21 @@ mod tests {
 
     #[test]
     fn a_cylinder_below_the_leg_is_ignored() {
-        let cyl = [Cylinder {
-            center_m: [50.0, 0.0],
-            radius_m: 10.0,
-            top_m: 40.0,
-        }];
-        let leg = prepass_leg(
-            [0.0, 0.0],
-            [100.0, 0.0],
-            50.0,
-            &cyl,
-            &Zones::default(),
-            &PrepassParams::default(),
-        );
+        let cyl = [cylinder([50.0, 0.0], 10.0, 40.0)];
+        let leg = prepass([0.0, 0.0], [100.0, 0.0], 50.0, &cyl);
         assert!(leg.inserted.is_empty() && !leg.blocked);
         // At 40 m (equal to the top) it matters.
-        let leg = prepass_leg(
-            [0.0, 0.0],
-            [100.0, 0.0],
-            40.0,
-            &cyl,
-            &Zones::default(),
-            &PrepassParams::default(),
-        );
+        let leg = prepass([0.0, 0.0], [100.0, 0.0], 40.0, &cyl);
         assert_eq!(leg.inserted.len(), 1);
     }
 
     #[test]
     fn two_cylinders_in_a_row_each_get_a_waypoint() {
         let cyl = [
-            Cylinder {
-                center_m: [100.0, 3.0],
-                radius_m: 20.0,
-                top_m: 100.0,
-            },
-            Cylinder {
-                center_m: [300.0, -3.0],
-                radius_m: 20.0,
-                top_m: 100.0,
-            },
+            cylinder([100.0, 3.0], 20.0, 100.0),
+            cylinder([300.0, -3.0], 20.0, 100.0),
         ];
-        let leg = prepass_leg(
-            [0.0, 0.0],
-            [400.0, 0.0],
-            50.0,
-            &cyl,
-            &Zones::default(),
-            &PrepassParams::default(),
-        );
+        let leg = prepass([0.0, 0.0], [400.0, 0.0], 50.0, &cyl);
         assert!(!leg.blocked);
         assert!(leg.inserted.len() >= 2);
     }

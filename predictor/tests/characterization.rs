@@ -5,7 +5,7 @@
 mod common;
 
 use common::{Behaviour, Generator};
-use predictor::{Predictor, PredictorConfig, Stage};
+use predictor::{ObstacleSummary, Predictor, PredictorConfig, Stage};
 
 /// 15 m/s and 15 deg/s: a 57 m tightest turn.
 const SPEED: f64 = 15.0;
@@ -31,11 +31,17 @@ fn history(p: &Predictor) -> Vec<(Stage, Stage, String)> {
         .collect()
 }
 
+/// Runs a track and checks the stage it settled in (the history in the failure message).
+fn settles_in(b: Behaviour, seed: u64, duration_s: f64, stage: Stage) -> ObstacleSummary {
+    let p = run(b, seed, duration_s);
+    let s = p.obstacle("0").unwrap();
+    assert_eq!(s.stage, stage, "seed {seed}: {:?}", history(&p));
+    s
+}
+
 #[test]
 fn a_straight_steady_obstacle_is_promoted_past_random() {
-    let p = run(Behaviour::Straight, 1, 90.0);
-    let s = p.obstacle("0").unwrap();
-    assert_eq!(s.stage, Stage::Advanced);
+    let s = settles_in(Behaviour::Straight, 1, 90.0, Stage::Advanced);
     let h = &s.stage_history;
     assert_eq!(h[0].to, Stage::Random);
     assert_eq!(h[1].from, Stage::Random);
@@ -51,9 +57,7 @@ fn a_straight_steady_obstacle_is_promoted_past_random() {
 #[test]
 fn an_obstacle_turning_uniformly_at_random_stays_random() {
     for seed in 0..5 {
-        let p = run(Behaviour::Uniform { w: w() }, seed, 300.0);
-        let s = p.obstacle("0").unwrap();
-        assert_eq!(s.stage, Stage::Random, "seed {seed}: {:?}", history(&p));
+        let s = settles_in(Behaviour::Uniform { w: w() }, seed, 300.0, Stage::Random);
         // The turn capability is estimated from the 5% radius quantile: about 0.95 w.
         let cap = s.estimates.turn_rate_max_dps;
         assert!((13.0..=15.5).contains(&cap), "seed {seed}: {cap}");
@@ -65,9 +69,7 @@ fn an_obstacle_turning_uniformly_at_random_stays_random() {
 #[test]
 fn an_obstacle_whose_turn_depends_on_its_previous_turn_reaches_memory() {
     for seed in 0..5 {
-        let p = run(Behaviour::Zigzag { w: w() }, seed, 400.0);
-        let s = p.obstacle("0").unwrap();
-        assert_eq!(s.stage, Stage::Memory, "seed {seed}: {:?}", history(&p));
+        let s = settles_in(Behaviour::Zigzag { w: w() }, seed, 400.0, Stage::Memory);
         let promo = s
             .stage_history
             .iter()
@@ -115,9 +117,7 @@ fn a_biased_memoryless_obstacle_is_regressed_from_memory_to_advanced() {
 
 #[test]
 fn a_stationary_obstacle_leaves_no_fly_and_stays_still() {
-    let p = run(Behaviour::Stationary, 3, 20.0);
-    let s = p.obstacle("0").unwrap();
-    assert_eq!(s.stage, Stage::Random);
+    let s = settles_in(Behaviour::Stationary, 3, 20.0, Stage::Random);
     assert_eq!(s.estimates.speed_mps, 0.0);
     assert_eq!(s.estimates.heading_deg, None);
     assert_eq!(s.turn_samples, 0);

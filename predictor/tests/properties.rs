@@ -138,41 +138,27 @@ fn coverage(stage: Stage, b: Behaviour, track_s: f64, trials: u64) -> f64 {
 /// Tolerance: coverage in [0.88, 0.99] over 80 seeded trials (a binomial standard error of
 /// 0.024 at 95%, plus the models' own estimation error: the capability is a 5% radius
 /// quantile, the histograms are smoothed).
+fn assert_covers_about_95_percent(stage: Stage, b: Behaviour, track_s: f64) {
+    let c = coverage(stage, b, track_s, 80);
+    assert!((0.88..=0.99).contains(&c), "{stage:?} coverage {c}");
+}
+
+/// A 15 degree-per-second turn rate, in radians per second.
+fn w15() -> f64 {
+    15f64.to_radians()
+}
+
 #[test]
 fn the_random_stage_95_percent_region_covers_uniform_turners() {
-    let c = coverage(
-        Stage::Random,
-        Behaviour::Uniform {
-            w: 15f64.to_radians(),
-        },
-        60.0,
-        80,
-    );
-    assert!((0.88..=0.99).contains(&c), "coverage {c}");
+    assert_covers_about_95_percent(Stage::Random, Behaviour::Uniform { w: w15() }, 60.0);
 }
 
 #[test]
 fn the_advanced_stage_95_percent_region_covers_biased_turners() {
-    let c = coverage(
-        Stage::Advanced,
-        Behaviour::Biased {
-            w: 15f64.to_radians(),
-        },
-        100.0,
-        80,
-    );
-    assert!((0.88..=0.99).contains(&c), "coverage {c}");
+    assert_covers_about_95_percent(Stage::Advanced, Behaviour::Biased { w: w15() }, 100.0);
 }
 
 #[test]
 fn the_memory_stage_95_percent_region_covers_zigzag_turners() {
-    let c = coverage(
-        Stage::Memory,
-        Behaviour::Zigzag {
-            w: 15f64.to_radians(),
-        },
-        120.0,
-        80,
-    );
-    assert!((0.88..=0.99).contains(&c), "coverage {c}");
+    assert_covers_about_95_percent(Stage::Memory, Behaviour::Zigzag { w: w15() }, 120.0);
 }

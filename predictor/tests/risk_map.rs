@@ -7,6 +7,24 @@ mod common;
 use common::{Behaviour, Generator};
 use predictor::{Observation, Predictor, PredictorConfig, RiskField, RiskMapConfig, Stage};
 
+/// An observation at 60 m altitude.
+fn obs(t_s: f64, p_m: [f64; 2], radius_m: f64) -> Observation {
+    Observation {
+        t_s,
+        p_m,
+        alt_m: 60.0,
+        radius_m,
+    }
+}
+
+/// Observes obstacle `id` (radius 10 m) at 10 Hz for `secs` seconds from t = 0 along `path`.
+fn observe_for(p: &mut Predictor, id: &str, secs: i32, path: impl Fn(f64) -> [f64; 2]) {
+    for i in 0..=10 * secs {
+        let t = f64::from(i) * 0.1;
+        p.observe(id, obs(t, path(t), 10.0));
+    }
+}
+
 fn cfg() -> RiskMapConfig {
     RiskMapConfig::default()
         .bounds([-400.0, -400.0], [400.0, 400.0])
@@ -20,13 +38,7 @@ fn a_stationary_obstacle_map_stays_a_disc_of_radius_plus_buffer() {
     let mut p = Predictor::new(PredictorConfig::default());
     // Radius 9.144 m (30 ft) at (12, -7), 3 s of 10 Hz observations.
     for i in 0..=30 {
-        let o = Observation {
-            t_s: f64::from(i) * 0.1,
-            p_m: [12.0, -7.0],
-            alt_m: 60.0,
-            radius_m: 9.144,
-        };
-        p.observe("s", o);
+        p.observe("s", obs(f64::from(i) * 0.1, [12.0, -7.0], 9.144));
     }
     assert_eq!(p.obstacle("s").unwrap().stage, Stage::Random);
     let c = cfg();
@@ -126,18 +138,7 @@ fn the_same_seed_gives_the_same_map_and_another_seed_a_different_one() {
 fn an_obstacle_that_cannot_reach_the_path_costs_nothing() {
     let mut p = Predictor::new(PredictorConfig::default());
     // A 10 m/s obstacle heading east at (0, 300), observed for 3 s.
-    for i in 0..=30 {
-        let t = f64::from(i) * 0.1;
-        p.observe(
-            "far",
-            Observation {
-                t_s: t,
-                p_m: [10.0 * t, 300.0],
-                alt_m: 60.0,
-                radius_m: 10.0,
-            },
-        );
-    }
+    observe_for(&mut p, "far", 3, |t| [10.0 * t, 300.0]);
     assert_eq!(p.obstacle("far").unwrap().stage, Stage::Random);
     let c = cfg().time(1.0, 10.0);
     // Over 3 s -> 13 s it travels at most 100 m; radius + buffer 15 m: a path 200 m away
@@ -155,15 +156,7 @@ fn an_obstacle_that_cannot_reach_the_path_costs_nothing() {
 #[test]
 fn a_new_obstacle_is_an_analytic_no_fly_disc_growing_at_the_assumed_speed() {
     let mut p = Predictor::new(PredictorConfig::default());
-    p.observe(
-        "n",
-        Observation {
-            t_s: 0.0,
-            p_m: [0.0, 0.0],
-            alt_m: 60.0,
-            radius_m: 10.0,
-        },
-    );
+    p.observe("n", obs(0.0, [0.0, 0.0], 10.0));
     assert_eq!(p.obstacle("n").unwrap().stage, Stage::NoFly);
     let map = p.risk_map(&cfg(), &[], 0.0);
     // Radius 10 + buffer 5 + 20.58 * 1.25 m/s * t: 15 m at t=0, 143.6 m at t=5.
@@ -180,18 +173,7 @@ fn a_new_obstacle_is_an_analytic_no_fly_disc_growing_at_the_assumed_speed() {
 #[test]
 fn the_constant_velocity_baseline_is_a_disc_at_the_extrapolated_position() {
     let mut p = Predictor::new(PredictorConfig::default());
-    for i in 0..=20 {
-        let t = f64::from(i) * 0.1;
-        p.observe(
-            "cv",
-            Observation {
-                t_s: t,
-                p_m: [0.0, 10.0 * t],
-                alt_m: 60.0,
-                radius_m: 10.0,
-            },
-        );
-    }
+    observe_for(&mut p, "cv", 2, |t| [0.0, 10.0 * t]);
     let f = p.constant_velocity_field(5.0);
     // At t = 12 the obstacle is extrapolated to (0, 120); radius + buffer 15.
     assert_eq!(f.risk([0.0, 134.0], 12.0), 1.0);
