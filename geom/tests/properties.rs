@@ -10,37 +10,8 @@ use geom::{
 };
 use proptest::prelude::*;
 
-/// Non-convex test zones on an integer grid (so `geo`'s exact predicates and ours see the
-/// same boundary): a U, a comb with two notches, an arrow with a reflex vertex.
-fn zones() -> Vec<Vec<Point>> {
-    vec![
-        vec![
-            [0.0, 0.0],
-            [10.0, 0.0],
-            [10.0, 10.0],
-            [6.0, 10.0],
-            [6.0, 2.0],
-            [4.0, 2.0],
-            [4.0, 10.0],
-            [0.0, 10.0],
-        ],
-        vec![
-            [0.0, 0.0],
-            [10.0, 0.0],
-            [10.0, 8.0],
-            [8.0, 8.0],
-            [8.0, 4.0],
-            [6.0, 4.0],
-            [6.0, 8.0],
-            [4.0, 8.0],
-            [4.0, 4.0],
-            [2.0, 4.0],
-            [2.0, 8.0],
-            [0.0, 8.0],
-        ],
-        vec![[0.0, 0.0], [10.0, 5.0], [0.0, 10.0], [4.0, 5.0]],
-    ]
-}
+mod common;
+use common::zones;
 
 fn geo_polygon(ring: &[Point]) -> geo::Polygon<f64> {
     geo::Polygon::new(

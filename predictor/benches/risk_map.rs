@@ -185,23 +185,14 @@ fn bench(c: &mut Criterion) {
             })
             .collect();
         g.throughput(Throughput::Elements(1 << 16));
+        let total_risk = |queries: &[([f64; 2], f64)]| -> f64 {
+            queries.iter().map(|&(q, t)| map.risk(q, t)).sum()
+        };
         g.bench_function("risk_queries_path_like", |b| {
-            b.iter(|| {
-                let mut s = 0.0;
-                for &(q, t) in &path_pts {
-                    s += map.risk(q, t);
-                }
-                black_box(s)
-            })
+            b.iter(|| black_box(total_risk(&path_pts)))
         });
         g.bench_function("risk_queries_scattered", |b| {
-            b.iter(|| {
-                let mut s = 0.0;
-                for &(q, t) in &scattered {
-                    s += map.risk(q, t);
-                }
-                black_box(s)
-            })
+            b.iter(|| black_box(total_risk(&scattered)))
         });
     }
     g.finish();

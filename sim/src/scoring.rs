@@ -227,6 +227,17 @@ mod tests {
         }
     }
 
+    /// A sphere of radius 30 m standing still at (0, 0, 100).
+    fn sphere_at_100_m() -> Still {
+        Still(vec![([0.0, 0.0, 100.0], 30.0)])
+    }
+
+    /// Two telemetry samples `dt_s` apart, from (-50, 0) to (50, 0) at `alt_m`: a pass over
+    /// the origin.
+    fn pass(alt_m: f64, dt_s: f64) -> [(f64, [f64; 3]); 2] {
+        [(0.0, [-50.0, 0.0, alt_m]), (dt_s, [50.0, 0.0, alt_m])]
+    }
+
     fn no_mission(
         points: &[(f64, [f64; 3])],
         s: &dyn SphereTruth,
@@ -240,8 +251,8 @@ mod tests {
         // Sphere r = 30 at (0, 0, 100). Samples at t = 0 (-50, 0) and t = 4 (50, 0), both 50 m
         // from the centre (outside), 4 s apart (<= 5 s). The line between them passes through
         // the centre: at t = 2.0 the interpolated point is (0, 0), 0 m away: a hit.
-        let s = Still(vec![([0.0, 0.0, 100.0], 30.0)]);
-        let tel = [(0.0, [-50.0, 0.0, 100.0]), (4.0, [50.0, 0.0, 100.0])];
+        let s = sphere_at_100_m();
+        let tel = pass(100.0, 4.0);
         let r = no_mission(&tel, &s, &[]);
         assert_eq!(r.sphere_hits, vec![true]);
         assert_eq!(r.sphere_score, 0.0); // (0/1)^3
@@ -254,21 +265,21 @@ mod tests {
     #[test]
     fn a_gap_longer_than_five_seconds_is_not_interpolated() {
         // Same geometry, samples 6 s apart: the judges did not fill the gap, no hit.
-        let s = Still(vec![([0.0, 0.0, 100.0], 30.0)]);
-        let tel = [(0.0, [-50.0, 0.0, 100.0]), (6.0, [50.0, 0.0, 100.0])];
+        let s = sphere_at_100_m();
+        let tel = pass(100.0, 6.0);
         assert_eq!(no_mission(&tel, &s, &[]).sphere_hits, vec![false]);
     }
 
     #[test]
     fn a_sphere_is_missed_when_the_altitude_clears_it_in_3d() {
         // Pass right over the centre (horizontal distance 0) but 31 m above a r = 30 sphere.
-        let s = Still(vec![([0.0, 0.0, 100.0], 30.0)]);
-        let tel = [(0.0, [-50.0, 0.0, 131.0]), (4.0, [50.0, 0.0, 131.0])];
+        let s = sphere_at_100_m();
+        let tel = pass(131.0, 4.0);
         let r = no_mission(&tel, &s, &[]);
         assert_eq!(r.sphere_hits, vec![false]);
         assert!((r.min_clearance_m - 1.0).abs() < 1e-9);
         // 29 m above: inside (3-D distance 29 <= 30).
-        let tel = [(0.0, [-50.0, 0.0, 129.0]), (4.0, [50.0, 0.0, 129.0])];
+        let tel = pass(129.0, 4.0);
         assert_eq!(no_mission(&tel, &s, &[]).sphere_hits, vec![true]);
     }
 
@@ -300,9 +311,9 @@ mod tests {
             top_m: 100.0,
         }];
         let none = Still(vec![]);
-        let at_top = [(0.0, [-50.0, 0.0, 100.0]), (5.0, [50.0, 0.0, 100.0])];
+        let at_top = pass(100.0, 5.0);
         assert_eq!(no_mission(&at_top, &none, &c).cylinder_hits, vec![true]);
-        let above = [(0.0, [-50.0, 0.0, 100.5]), (5.0, [50.0, 0.0, 100.5])];
+        let above = pass(100.5, 5.0);
         let r = no_mission(&above, &none, &c);
         assert_eq!(r.cylinder_hits, vec![false]);
         assert!((r.min_clearance_m - 0.5).abs() < 1e-9);

@@ -14,6 +14,21 @@ const COLORS: [&str; 10] = [
     "#17becf", "#d62728",
 ];
 
+/// The `points` attribute of an SVG polyline or polygon: `x,y` pairs in pixels.
+fn svg_points(
+    points: impl IntoIterator<Item = [f64; 2]>,
+    to_px: impl Fn([f64; 2]) -> [f64; 2],
+) -> String {
+    let pairs: Vec<String> = points
+        .into_iter()
+        .map(|p| {
+            let q = to_px(p);
+            format!("{:.1},{:.1}", q[0], q[1])
+        })
+        .collect();
+    pairs.join(" ")
+}
+
 /// An SVG document (about 800 px wide) of `run` on `scenario`.
 pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
     let m = &scenario.mission;
@@ -30,6 +45,7 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
     // ENU -> SVG (y down)
     let tx = |x: f64| (x - lo[0] + pad) * k;
     let ty = |y: f64| (hi[1] + pad - y) * k;
+    let px_of = |p: [f64; 2]| [tx(p[0]), ty(p[1])];
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -38,14 +54,10 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
         height + 40.0
     );
     let _ = writeln!(s, r##"<rect width="100%" height="100%" fill="#ffffff"/>"##);
-    let zone: Vec<String> = fly_zone(m)
-        .iter()
-        .map(|p| format!("{:.1},{:.1}", tx(p[0]), ty(p[1])))
-        .collect();
     let _ = writeln!(
         s,
         r##"<polygon points="{}" fill="#f4fbf4" stroke="#2e7d32" stroke-width="2"/>"##,
-        zone.join(" ")
+        svg_points(fly_zone(m).iter().copied(), px_of)
     );
     let min_alt = m
         .waypoints
@@ -82,16 +94,10 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
         let col = COLORS[i % COLORS.len()];
         let hit = run.judge.sphere_hits.get(i).copied().unwrap_or(false);
         let n = (t_end / 1.0).ceil() as usize;
-        let pts: Vec<String> = (0..=n)
-            .map(|j| {
-                let p = sp.track.at(j as f64);
-                format!("{:.1},{:.1}", tx(p[0]), ty(p[1]))
-            })
-            .collect();
         let _ = writeln!(
             s,
             r#"<polyline points="{}" fill="none" stroke="{col}" stroke-width="1" stroke-opacity="0.6"/>"#,
-            pts.join(" ")
+            svg_points((0..=n).map(|j| xy(sp.track.at(j as f64))), px_of)
         );
         let end = sp.track.at(t_end);
         let _ = writeln!(
@@ -113,25 +119,17 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
         );
     }
     // mission legs
-    let legs: Vec<String> = std::iter::once(xy(scenario.start_m))
-        .chain(m.waypoints.iter().map(|w| w.p_m))
-        .map(|p| format!("{:.1},{:.1}", tx(p[0]), ty(p[1])))
-        .collect();
+    let legs = std::iter::once(xy(scenario.start_m)).chain(m.waypoints.iter().map(|w| w.p_m));
     let _ = writeln!(
         s,
         r##"<polyline points="{}" fill="none" stroke="#000" stroke-width="1" stroke-dasharray="6 4"/>"##,
-        legs.join(" ")
+        svg_points(legs, px_of)
     );
     // aircraft track, red where inside some obstacle at that time
-    let track: Vec<String> = run
-        .track
-        .iter()
-        .map(|p| format!("{:.1},{:.1}", tx(p[1]), ty(p[2])))
-        .collect();
     let _ = writeln!(
         s,
         r##"<polyline points="{}" fill="none" stroke="#0d47a1" stroke-width="2"/>"##,
-        track.join(" ")
+        svg_points(run.track.iter().map(|p| [p[1], p[2]]), px_of)
     );
     for p in &run.track {
         let q = [p[1], p[2], p[3]];
@@ -200,4 +198,19 @@ pub fn plot_run(scenario: &Scenario, run: &RunResult) -> String {
     );
     s.push_str("</svg>\n");
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svg_points_are_pixel_pairs_to_one_decimal() {
+        let flip = |p: [f64; 2]| [2.0 * p[0], 100.0 - p[1]];
+        assert_eq!(
+            svg_points([[0.0, 0.0], [1.25, 10.0]], flip),
+            "0.0,100.0 2.5,90.0"
+        );
+        assert_eq!(svg_points([], flip), "");
+    }
 }
