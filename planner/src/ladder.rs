@@ -70,30 +70,17 @@ impl Default for LadderParams {
 }
 
 impl LadderParams {
-    /// Sets the spacing, metres.
-    pub fn spacing_m(mut self, s: f64) -> Self {
-        self.spacing_m = s;
-        self
-    }
-    /// Sets the sweep direction, compass radians.
-    pub fn heading_rad(mut self, h: f64) -> Self {
-        self.heading_rad = h;
-        self
-    }
-    /// Sets the turn radius, metres.
-    pub fn turn_radius_m(mut self, r: f64) -> Self {
-        self.turn_radius_m = r;
-        self
-    }
-    /// Sets the end margin, metres.
-    pub fn margin_m(mut self, m: f64) -> Self {
-        self.margin_m = m;
-        self
-    }
-    /// Sets the order.
-    pub fn order(mut self, o: LadderOrder) -> Self {
-        self.order = o;
-        self
+    setters! {
+        /// Sets the spacing, metres.
+        spacing_m(spacing_m: f64);
+        /// Sets the sweep direction, compass radians.
+        heading_rad(heading_rad: f64);
+        /// Sets the turn radius, metres.
+        turn_radius_m(turn_radius_m: f64);
+        /// Sets the end margin, metres.
+        margin_m(margin_m: f64);
+        /// Sets the order.
+        order(order: LadderOrder);
     }
 }
 

@@ -5,6 +5,34 @@
 
 #![warn(missing_docs)]
 
+/// Builder setters for a parameters struct: each `name(field: Type);` line, under its doc
+/// comment, becomes `pub fn name(mut self, field: Type) -> Self` that sets `self.field`.
+/// Used inside an `impl` block by the planner's and the simulator's parameter types.
+///
+/// ```
+/// #[derive(Default)]
+/// pub struct Params { spacing_m: f64 }
+/// impl Params {
+///     planner::setters! {
+///         /// Sets the spacing, metres.
+///         spacing_m(spacing_m: f64);
+///     }
+/// }
+/// assert_eq!(Params::default().spacing_m(60.0).spacing_m, 60.0);
+/// ```
+#[macro_export]
+macro_rules! setters {
+    ($($(#[$doc:meta])* $name:ident($field:ident: $ty:ty);)*) => {
+        $(
+            $(#[$doc])*
+            pub fn $name(mut self, $field: $ty) -> Self {
+                self.$field = $field;
+                self
+            }
+        )*
+    };
+}
+
 pub mod bisection;
 pub mod cost;
 pub mod detour;

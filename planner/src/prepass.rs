@@ -45,15 +45,11 @@ impl Default for PrepassParams {
 }
 
 impl PrepassParams {
-    /// Sets the buffer fraction.
-    pub fn buffer_fraction(mut self, f: f64) -> Self {
-        self.buffer_fraction = f;
-        self
-    }
-    /// Sets the round limit.
-    pub fn max_rounds(mut self, n: usize) -> Self {
-        self.max_rounds = n;
-        self
+    setters! {
+        /// Sets the buffer fraction.
+        buffer_fraction(buffer_fraction: f64);
+        /// Sets the round limit.
+        max_rounds(max_rounds: usize);
     }
 }
 

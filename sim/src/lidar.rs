@@ -37,15 +37,11 @@ impl Default for LidarParams {
 }
 
 impl LidarParams {
-    /// Sets the range.
-    pub fn range_m(mut self, v: f64) -> Self {
-        self.range_m = v;
-        self
-    }
-    /// Sets the beam count.
-    pub fn beams(mut self, v: usize) -> Self {
-        self.beams = v;
-        self
+    planner::setters! {
+        /// Sets the range.
+        range_m(range_m: f64);
+        /// Sets the beam count.
+        beams(beams: usize);
     }
     /// Angle of beam `i` relative to the heading, degrees.
     pub fn angle_deg(&self, i: usize) -> f64 {

@@ -36,20 +36,13 @@ impl Default for TelemetryParams {
 }
 
 impl TelemetryParams {
-    /// Sets the rate.
-    pub fn rate_hz(mut self, v: f64) -> Self {
-        self.rate_hz = v;
-        self
-    }
-    /// Sets the noise.
-    pub fn noise_sigma_m(mut self, v: f64) -> Self {
-        self.noise_sigma_m = v;
-        self
-    }
-    /// Sets the dropout probability.
-    pub fn dropout_prob(mut self, v: f64) -> Self {
-        self.dropout_prob = v;
-        self
+    planner::setters! {
+        /// Sets the rate.
+        rate_hz(rate_hz: f64);
+        /// Sets the noise.
+        noise_sigma_m(noise_sigma_m: f64);
+        /// Sets the dropout probability.
+        dropout_prob(dropout_prob: f64);
     }
 }
 

@@ -125,25 +125,15 @@ impl Default for PilotParams {
 }
 
 impl PilotParams {
-    /// Set the maximum deviation (metres).
-    pub fn with_max_deviation_m(mut self, v: f64) -> Self {
-        self.max_deviation_m = v;
-        self
-    }
-    /// Set the snap-back size (metres).
-    pub fn with_snap_back_m(mut self, v: f64) -> Self {
-        self.snap_back_m = v;
-        self
-    }
-    /// Set the goal-funnel ratio.
-    pub fn with_funnel_ratio(mut self, v: f64) -> Self {
-        self.funnel_ratio = v;
-        self
-    }
-    /// Set `goal_fraction` (the seed's 0.6).
-    pub fn with_goal_fraction(mut self, v: f64) -> Self {
-        self.goal_fraction = v;
-        self
+    setters! {
+        /// Set the maximum deviation (metres).
+        with_max_deviation_m(max_deviation_m: f64);
+        /// Set the snap-back size (metres).
+        with_snap_back_m(snap_back_m: f64);
+        /// Set the goal-funnel ratio.
+        with_funnel_ratio(funnel_ratio: f64);
+        /// Set `goal_fraction` (the seed's 0.6).
+        with_goal_fraction(goal_fraction: f64);
     }
     /// Set the return overhead `delta` (metres).
     pub fn with_return_overhead_m(mut self, v: f64) -> Self {

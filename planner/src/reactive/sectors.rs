@@ -101,15 +101,11 @@ impl Default for SectorParams {
 }
 
 impl SectorParams {
-    /// Set `range_min_m`.
-    pub fn with_range_min_m(mut self, v: f64) -> Self {
-        self.range_min_m = v;
-        self
-    }
-    /// Set `obj_threshold_m`.
-    pub fn with_obj_threshold_m(mut self, v: f64) -> Self {
-        self.obj_threshold_m = v;
-        self
+    setters! {
+        /// Set `range_min_m`.
+        with_range_min_m(range_min_m: f64);
+        /// Set `obj_threshold_m`.
+        with_obj_threshold_m(obj_threshold_m: f64);
     }
     /// Set the cruise command (used when the front is clear).
     pub fn with_cruise(mut self, linear: f64, angular: f64) -> Self {

@@ -47,25 +47,15 @@ impl Default for OffsetParams {
 }
 
 impl OffsetParams {
-    /// Set the scan radii (metres, any order).
-    pub fn with_scan_radii_m(mut self, radii_m: Vec<f64>) -> Self {
-        self.scan_radii_m = radii_m;
-        self
-    }
-    /// Set the threshold `T`.
-    pub fn with_threshold(mut self, threshold: f64) -> Self {
-        self.threshold = threshold;
-        self
-    }
-    /// Set the window size `N` (beams).
-    pub fn with_window(mut self, window: usize) -> Self {
-        self.window = window;
-        self
-    }
-    /// Set the field of view (degrees).
-    pub fn with_fov_deg(mut self, fov_deg: f64) -> Self {
-        self.fov_deg = fov_deg;
-        self
+    setters! {
+        /// Set the scan radii (metres, any order).
+        with_scan_radii_m(scan_radii_m: Vec<f64>);
+        /// Set the threshold `T`.
+        with_threshold(threshold: f64);
+        /// Set the window size `N` (beams).
+        with_window(window: usize);
+        /// Set the field of view (degrees).
+        with_fov_deg(fov_deg: f64);
     }
     /// Set the sensor's valid range `[min, max]` in metres.
     pub fn with_range_m(mut self, range_min_m: f64, range_max_m: f64) -> Self {
