@@ -15,7 +15,7 @@
 //! closed) without the bounding-box shortcut. The tests cross-check both against `geo`.
 
 use crate::segment::{closest_t_on_segment, dist_point_segment};
-use crate::vector::{Point, cross, lerp, norm, sub};
+use crate::vector::{Point, cross, dot, lerp, sub};
 
 /// How far outside the boundary a point may be and still count as on it, metres. Covers
 /// floating-point rounding of coordinates that are meant to coincide (a waypoint placed on a
@@ -80,7 +80,7 @@ enum Contact {
 fn contact(a: Point, b: Point, ring: &[Point]) -> Contact {
     let tol = BOUNDARY_TOLERANCE_M;
     let s = sub(b, a);
-    let ls = norm(s);
+    let ls2 = dot(s, s);
     let mut touches = false;
     for (q1, q2) in edges(ring) {
         if a[0].max(b[0]) < q1[0].min(q2[0]) - tol
@@ -91,17 +91,20 @@ fn contact(a: Point, b: Point, ring: &[Point]) -> Contact {
             continue;
         }
         let e = sub(q2, q1);
-        let le = norm(e);
-        if le == 0.0 || ls == 0.0 {
+        let le2 = dot(e, e);
+        if le2 == 0.0 || ls2 == 0.0 {
             touches = true;
             continue;
         }
-        // Signed distances of a, b from the edge's line and of q1, q2 from the segment's.
-        let da = cross(e, sub(a, q1)) / le;
-        let db = cross(e, sub(b, q1)) / le;
-        let d1 = cross(s, sub(q1, a)) / ls;
-        let d2 = cross(s, sub(q2, a)) / ls;
-        if da.abs() <= tol || db.abs() <= tol || d1.abs() <= tol || d2.abs() <= tol {
+        // a, b against the edge's line and q1, q2 against the segment's: each cross
+        // product is a signed distance times the line's length, so "within the tolerance of
+        // the line" is cross^2 <= tol^2 * length^2 (no square root in this hot loop).
+        let da = cross(e, sub(a, q1));
+        let db = cross(e, sub(b, q1));
+        let d1 = cross(s, sub(q1, a));
+        let d2 = cross(s, sub(q2, a));
+        let near = |d: f64, l2: f64| d * d <= tol * tol * l2;
+        if near(da, le2) || near(db, le2) || near(d1, ls2) || near(d2, ls2) {
             touches = true;
         } else if (da > 0.0) != (db > 0.0) && (d1 > 0.0) != (d2 > 0.0) {
             return Contact::Crosses;

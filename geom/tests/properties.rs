@@ -71,6 +71,23 @@ proptest! {
         prop_assert_eq!(segment_inside_polygon(a, b, ring), expected, "{:?} -> {:?}", a, b);
     }
 
+    /// The same answers at the scale and placement of a real fly zone (kilometres from the
+    /// origin, rotated, so that "on the boundary" is only true up to rounding).
+    #[test]
+    fn contains_segment_is_unchanged_by_moving_rotating_and_scaling(
+        (z, a, b) in (0usize..3).prop_flat_map(|z| (Just(z), grid_or_boundary_point(z), grid_or_boundary_point(z))),
+        rot in 0.0..std::f64::consts::TAU,
+        k in 10.0..200.0f64,
+        origin in (-5000.0..5000.0f64, -5000.0..5000.0f64),
+    ) {
+        let (c, s) = (rot.cos(), rot.sin());
+        let place = |p: Point| [origin.0 + k * (c * p[0] - s * p[1]), origin.1 + k * (s * p[0] + c * p[1])];
+        let ring = &zones()[z];
+        let placed: Vec<Point> = ring.iter().map(|p| place(*p)).collect();
+        let expected = geo_polygon(ring).covers(&geo::Line::new((a[0], a[1]), (b[0], b[1])));
+        prop_assert_eq!(Polygon::new(&placed).contains_segment(place(a), place(b)), expected, "{:?} -> {:?}", a, b);
+    }
+
     /// Every leg between two boundary points of a convex zone (vertices or points on edges)
     /// is inside, however the zone is rotated and placed; pushed out past a vertex, it is not.
     #[test]
