@@ -36,13 +36,7 @@ fn setup() -> Setup {
     let mission = common::webster();
     let movers = common::synthetic_movers(&mission, 10, 42);
     let stack = mission_stack(&mission);
-    let state = AircraftState {
-        p_m: mission.waypoints[0].p_m,
-        alt_m: mission.waypoints[0].alt_m,
-        heading_rad: 0.0,
-        speed_mps: 20.0,
-        t_s: 0.0,
-    };
+    let state = common::state_at_first_waypoint(&mission);
     let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
     for p in &mission.fly_zones[0].boundary_m {
         lo = [lo[0].min(p[0]), lo[1].min(p[1])];

@@ -7,7 +7,7 @@ mod common;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use planner::stack::mission_stack;
-use planner::{Aircraft, AircraftState, PlanParams, PlanRequest, plan};
+use planner::{Aircraft, PlanParams, PlanRequest, plan};
 use predictor::NoRisk;
 use std::hint::black_box;
 
@@ -18,13 +18,7 @@ fn bench(c: &mut Criterion) {
         let mut m = base.clone();
         m.cylinders = common::cylinders_on_legs(&base, n, 11);
         let stack = mission_stack(&m);
-        let st = AircraftState {
-            p_m: m.waypoints[0].p_m,
-            alt_m: m.waypoints[0].alt_m,
-            heading_rad: 0.0,
-            speed_mps: 20.0,
-            t_s: 0.0,
-        };
+        let st = common::state_at_first_waypoint(&m);
         let req = PlanRequest {
             mission: &m,
             aircraft: Aircraft {

@@ -170,3 +170,15 @@ pub fn cylinders_on_legs(
     }
     out
 }
+
+/// The aircraft at the mission's first waypoint, at its altitude, heading north at 20 m/s at
+/// t = 0 (the benches' starting state).
+pub fn state_at_first_waypoint(mission: &planner::Mission) -> planner::AircraftState {
+    planner::AircraftState {
+        p_m: mission.waypoints[0].p_m,
+        alt_m: mission.waypoints[0].alt_m,
+        heading_rad: 0.0,
+        speed_mps: 20.0,
+        t_s: 0.0,
+    }
+}
