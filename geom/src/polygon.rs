@@ -118,20 +118,31 @@ fn contact(a: Point, b: Point, ring: &[Point]) -> Contact {
 }
 
 /// Given both ends inside (closed), whether the segment stays inside: it fails on a proper
-/// crossing; with only touches, it is cut at every vertex on it and each piece (which meets
-/// the boundary at most along its whole length) is judged by its midpoint.
+/// crossing. With only touches and near misses, the segment is cut wherever it meets an
+/// edge's line within the edge and at every vertex within the tolerance of it; between two
+/// cuts it meets no edge, so each piece is wholly inside, wholly outside or along an edge,
+/// and its midpoint decides.
 fn segment_stays_in(a: Point, b: Point, ring: &[Point], contains: impl Fn(Point) -> bool) -> bool {
     match contact(a, b, ring) {
         Contact::Apart => true,
         Contact::Crosses => false,
         Contact::Touches => {
-            let mut cuts: Vec<f64> = ring
+            let s = sub(b, a);
+            let crossings = edges(ring).filter_map(|(q1, q2)| {
+                let e = sub(q2, q1);
+                let denom = cross(s, e);
+                if denom == 0.0 {
+                    return None;
+                }
+                let aq = sub(q1, a);
+                let (t, u) = (cross(aq, e) / denom, cross(aq, s) / denom);
+                ((0.0..=1.0).contains(&t) && (0.0..=1.0).contains(&u)).then_some(t)
+            });
+            let vertices = ring
                 .iter()
                 .filter(|q| dist_point_segment(**q, a, b) <= BOUNDARY_TOLERANCE_M)
-                .map(|q| closest_t_on_segment(*q, a, b))
-                .collect();
-            cuts.push(0.0);
-            cuts.push(1.0);
+                .map(|q| closest_t_on_segment(*q, a, b));
+            let mut cuts: Vec<f64> = crossings.chain(vertices).chain([0.0, 1.0]).collect();
             cuts.sort_by(f64::total_cmp);
             cuts.windows(2)
                 .filter(|w| w[1] > w[0])
