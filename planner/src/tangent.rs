@@ -181,6 +181,16 @@ pub fn shortest_path(
 mod tests {
     use super::*;
 
+    /// The fly zone x in [-10, 1010], y in [y_min, y_max]: a strip along the test legs.
+    fn strip(y_min: f64, y_max: f64) -> [P2; 4] {
+        [
+            [-10.0, y_min],
+            [1010.0, y_min],
+            [1010.0, y_max],
+            [-10.0, y_max],
+        ]
+    }
+
     #[test]
     fn a_clear_leg_needs_no_detour() {
         let p = TangentGraphParams::default();
@@ -217,12 +227,7 @@ mod tests {
     fn the_fly_zone_forces_the_other_side() {
         // Zone is a strip y in [-100, 20]: the north side of the circle (y up to ~52) is
         // outside, so the path must go south.
-        let zone = [
-            [-10.0, -100.0],
-            [1010.0, -100.0],
-            [1010.0, 20.0],
-            [-10.0, 20.0],
-        ];
+        let zone = strip(-100.0, 20.0);
         let p = TangentGraphParams::default();
         let path = shortest_path(
             [0.0, 0.0],
@@ -238,12 +243,7 @@ mod tests {
     #[test]
     fn a_wall_of_circles_across_the_zone_leaves_no_path() {
         // Strip y in [-100, 100]; circles every 60 m across it with r = 40 overlap: blocked.
-        let zone = [
-            [-10.0, -100.0],
-            [1010.0, -100.0],
-            [1010.0, 100.0],
-            [-10.0, 100.0],
-        ];
+        let zone = strip(-100.0, 100.0);
         let wall: Vec<(P2, f64)> = (-2..=2)
             .map(|i| ([500.0, 60.0 * f64::from(i)], 40.0))
             .collect();
