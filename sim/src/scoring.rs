@@ -238,6 +238,12 @@ mod tests {
         [(0.0, [-50.0, 0.0, alt_m]), (dt_s, [50.0, 0.0, alt_m])]
     }
 
+    /// The judges' report on [`pass`] at `alt_m`, samples `dt_s` apart, by
+    /// [`sphere_at_100_m`] (interpolated, no mission).
+    fn judge_pass(alt_m: f64, dt_s: f64) -> JudgeReport {
+        no_mission(&pass(alt_m, dt_s), &sphere_at_100_m(), &[])
+    }
+
     fn no_mission(
         points: &[(f64, [f64; 3])],
         s: &dyn SphereTruth,
@@ -251,13 +257,11 @@ mod tests {
         // Sphere r = 30 at (0, 0, 100). Samples at t = 0 (-50, 0) and t = 4 (50, 0), both 50 m
         // from the centre (outside), 4 s apart (<= 5 s). The line between them passes through
         // the centre: at t = 2.0 the interpolated point is (0, 0), 0 m away: a hit.
-        let s = sphere_at_100_m();
-        let tel = pass(100.0, 4.0);
-        let r = no_mission(&tel, &s, &[]);
+        let r = judge_pass(100.0, 4.0);
         assert_eq!(r.sphere_hits, vec![true]);
         assert_eq!(r.sphere_score, 0.0); // (0/1)^3
         // Only the samples themselves: no hit.
-        let raw = judge_points(&tel, &s, &[], &[], None);
+        let raw = judge_points(&pass(100.0, 4.0), &sphere_at_100_m(), &[], &[], None);
         assert_eq!(raw.sphere_hits, vec![false]);
         assert!((raw.min_clearance_m - 20.0).abs() < 1e-9); // 50 - 30
     }
@@ -265,22 +269,17 @@ mod tests {
     #[test]
     fn a_gap_longer_than_five_seconds_is_not_interpolated() {
         // Same geometry, samples 6 s apart: the judges did not fill the gap, no hit.
-        let s = sphere_at_100_m();
-        let tel = pass(100.0, 6.0);
-        assert_eq!(no_mission(&tel, &s, &[]).sphere_hits, vec![false]);
+        assert_eq!(judge_pass(100.0, 6.0).sphere_hits, vec![false]);
     }
 
     #[test]
     fn a_sphere_is_missed_when_the_altitude_clears_it_in_3d() {
         // Pass right over the centre (horizontal distance 0) but 31 m above a r = 30 sphere.
-        let s = sphere_at_100_m();
-        let tel = pass(131.0, 4.0);
-        let r = no_mission(&tel, &s, &[]);
+        let r = judge_pass(131.0, 4.0);
         assert_eq!(r.sphere_hits, vec![false]);
         assert!((r.min_clearance_m - 1.0).abs() < 1e-9);
         // 29 m above: inside (3-D distance 29 <= 30).
-        let tel = pass(129.0, 4.0);
-        assert_eq!(no_mission(&tel, &s, &[]).sphere_hits, vec![true]);
+        assert_eq!(judge_pass(129.0, 4.0).sphere_hits, vec![true]);
     }
 
     #[test]
