@@ -43,11 +43,22 @@ fn even_odd(p: Point, ring: &[Point]) -> bool {
     inside
 }
 
+/// Whether `p` is within [`BOUNDARY_TOLERANCE_M`] of segment `a -> b`, by squared distances
+/// (no square root: this runs for every edge when a point is outside).
+fn near_segment(p: Point, a: Point, b: Point) -> bool {
+    let d = sub(p, lerp(a, b, closest_t_on_segment(p, a, b)));
+    dot(d, d) <= BOUNDARY_TOLERANCE_M * BOUNDARY_TOLERANCE_M
+}
+
+/// Whether `p` is within [`BOUNDARY_TOLERANCE_M`] of some edge of `ring`.
+fn near_boundary(p: Point, ring: &[Point]) -> bool {
+    edges(ring).any(|(a, b)| near_segment(p, a, b))
+}
+
 /// Whether `p` is inside the polygon `ring` or on its boundary (fewer than three vertices
 /// contain nothing).
 pub fn point_in_polygon(p: Point, ring: &[Point]) -> bool {
-    ring.len() >= 3
-        && (even_odd(p, ring) || distance_to_polygon_boundary(p, ring) <= BOUNDARY_TOLERANCE_M)
+    ring.len() >= 3 && (even_odd(p, ring) || near_boundary(p, ring))
 }
 
 /// Distance from `p` to the nearest edge of the polygon `ring`, metres (infinite for an
@@ -140,7 +151,7 @@ fn segment_stays_in(a: Point, b: Point, ring: &[Point], contains: impl Fn(Point)
             });
             let vertices = ring
                 .iter()
-                .filter(|q| dist_point_segment(**q, a, b) <= BOUNDARY_TOLERANCE_M)
+                .filter(|q| near_segment(**q, a, b))
                 .map(|q| closest_t_on_segment(*q, a, b));
             let mut cuts: Vec<f64> = crossings.chain(vertices).chain([0.0, 1.0]).collect();
             cuts.sort_by(f64::total_cmp);
@@ -198,7 +209,7 @@ impl Polygon {
         {
             return false;
         }
-        even_odd(p, &self.vertices) || self.boundary_distance(p) <= tol
+        even_odd(p, &self.vertices) || near_boundary(p, &self.vertices)
     }
 
     /// Whether every point of segment `a -> b` is inside or on the boundary: a leg touching
