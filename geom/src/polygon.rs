@@ -10,8 +10,8 @@
 //! # Speed
 //! [`Polygon`] keeps a flat vertex list and a bounding box rather than using the `geo`
 //! crate: the planner asks "is this point / segment inside the fly zone" a few hundred
-//! thousand times per plan, and the even-odd test costs a few ns per edge without
-//! allocation. The free functions answer the same questions on a bare vertex ring (open or
+//! thousand times per plan, and the even-odd test is a handful of arithmetic operations per
+//! edge without allocation. The free functions answer the same questions on a bare vertex ring (open or
 //! closed) without the bounding-box shortcut. The tests cross-check both against `geo`.
 
 use crate::segment::{closest_t_on_segment, dist_point_segment};
@@ -88,6 +88,7 @@ enum Contact {
     Touches,
 }
 
+/// Classifies how segment `a -> b` meets the edges of `ring` (see [`Contact`]).
 fn contact(a: Point, b: Point, ring: &[Point]) -> Contact {
     let tol = BOUNDARY_TOLERANCE_M;
     let s = sub(b, a);
