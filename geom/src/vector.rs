@@ -67,7 +67,7 @@ pub fn unit(a: Point) -> Option<Point> {
     (n > 1e-12).then(|| scale(a, 1.0 / n))
 }
 
-/// Unit vector of `a`, or the zero vector for a (near) zero `a` (see [`unit`]).
+/// Unit vector of `a`, or the zero vector for a (near) zero `a` (see [`unit()`]).
 #[inline]
 pub fn unit_or_zero(a: Point) -> Point {
     unit(a).unwrap_or([0.0, 0.0])
