@@ -43,10 +43,12 @@ impl Default for DetourParams {
     }
 }
 
-/// Candidate tails that replace the items before `target` (an index into `tail`, a fixed
-/// item) by detours through one avoid point, or two (the second halfway between the first
-/// and the target, pushed out to the same side); the items from `target` on are kept.
-/// `from` is the aircraft's position; `alt_m` the altitude the detour is flown at.
+/// Candidate tails that replace the avoid items between the last fixed item before `target`
+/// (or the aircraft, when there is none) and `target` (an index into `tail`, a fixed item)
+/// by detours through one avoid point, or two (the second halfway between the first and the
+/// target, pushed out to the same side). Every fixed item is kept: the items up to that
+/// last fixed one and from `target` on are unchanged. `from` is the aircraft's position;
+/// `alt_m` the altitude the detour is flown at.
 #[allow(clippy::too_many_arguments)]
 pub fn detour_candidates(
     from: Point,
@@ -61,6 +63,16 @@ pub fn detour_candidates(
 ) -> Vec<Vec<StackItem>> {
     let Some(goal) = tail.get(target) else {
         return Vec::new();
+    };
+    // A mission or search waypoint before the target stays in the route: the detour starts
+    // there, not at the aircraft.
+    let start = tail[..target]
+        .iter()
+        .rposition(StackItem::is_fixed)
+        .map_or(0, |i| i + 1);
+    let (kept, from) = match start {
+        0 => (&tail[..0], from),
+        _ => (&tail[..start], tail[start - 1].p_m),
     };
     let to = sub(goal.p_m, from);
     let d_goal = dist(from, goal.p_m);
@@ -90,7 +102,7 @@ pub fn detour_candidates(
                 continue;
             }
             // One point.
-            let mut one = Vec::new();
+            let mut one = kept.to_vec();
             join(from, w, &mut one);
             one.push(StackItem::avoid(w, alt_m));
             join(w, goal.p_m, &mut one);
@@ -107,7 +119,7 @@ pub fn detour_candidates(
                     .iter()
                     .any(|c| c.matters_at(alt_m) && dist(c.center_m, w2) < c.radius_m * 1.2)
             {
-                let mut two = Vec::new();
+                let mut two = kept.to_vec();
                 join(from, w, &mut two);
                 two.push(StackItem::avoid(w, alt_m));
                 join(w, w2, &mut two);
@@ -152,6 +164,40 @@ mod tests {
         for cand in &c {
             assert!(cand.ends_with(&tail));
             assert!(cand.iter().all(|it| zones.contains(it.p_m)));
+        }
+    }
+
+    #[test]
+    fn a_target_after_a_waypoint_keeps_the_waypoint_and_detours_from_it() {
+        // The conflict is on the leg from waypoint 0 to waypoint 1 (the target): waypoint 0
+        // must stay, and the detour points lie between it and the target.
+        let zones = Zones::single(&[
+            [-2000.0, -500.0],
+            [2000.0, -500.0],
+            [2000.0, 3000.0],
+            [-2000.0, 3000.0],
+        ]);
+        let tail = vec![
+            StackItem::mission(0, [0.0, 1000.0], 100.0),
+            StackItem::mission(1, [0.0, 2000.0], 100.0),
+        ];
+        let c = detour_candidates(
+            [0.0, 0.0],
+            &tail,
+            1,
+            100.0,
+            40.0,
+            &[],
+            &zones,
+            &PrepassParams::default(),
+            &DetourParams::default(),
+        );
+        assert!(!c.is_empty());
+        for cand in &c {
+            assert_eq!(cand.first(), Some(&tail[0]), "{cand:?}");
+            assert!(cand.ends_with(&tail[1..]));
+            let fixed: Vec<_> = cand.iter().filter(|it| it.is_fixed()).collect();
+            assert_eq!(fixed, vec![&tail[0], &tail[1]]);
         }
     }
 }
