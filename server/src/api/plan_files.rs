@@ -26,7 +26,8 @@ async fn get_plan_wpl(
     plan_file(&state, &id, &plan_id, PlanFormat::QgcWpl).await
 }
 
-/// A stored plan as a QGroundControl `.plan` file, the fly zones as inclusion geofences.
+/// A stored plan as a QGroundControl `.plan` file, the fly zones as inclusion geofences and
+/// the stationary obstacles (cylinders) as exclusion circles.
 #[utoipa::path(get, path = "/api/v1/missions/{id}/plans/{plan_id}/qgc-plan", tag = "plans",
     params(("id" = String, Path, description = "Mission id"), ("plan_id" = String, Path, description = "Plan id")),
     responses(

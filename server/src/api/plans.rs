@@ -24,7 +24,8 @@ use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 use utoipa_axum::{router::OpenApiRouter, routes};
 
-use planner::export::{GeoItem, GeoPoint, PlanFileOptions, qgc_plan, qgc_wpl};
+use planner::export::qgc_plan::{ExclusionCircle, qgc_plan_with_fence};
+use planner::export::{GeoItem, GeoPoint, PlanFileOptions, qgc_wpl};
 use planner::{ItemKind, PlanOutcome, StackItem, Strategy};
 use predictor::Predictor;
 
@@ -941,8 +942,26 @@ pub(crate) async fn plan_file(
                         .collect()
                 })
                 .collect();
+            let cylinders: Vec<ExclusionCircle> = mission
+                .content
+                .stationary_obstacles
+                .iter()
+                .map(|c| ExclusionCircle {
+                    center: GeoPoint {
+                        lat_deg: c.lat,
+                        lon_deg: c.lon,
+                    },
+                    radius_m: c.radius_m,
+                })
+                .collect();
             (
-                qgc_plan(&home, &items, &zones, &PlanFileOptions::default()),
+                qgc_plan_with_fence(
+                    &home,
+                    &items,
+                    &zones,
+                    &cylinders,
+                    &PlanFileOptions::default(),
+                ),
                 "application/json",
                 "plan",
             )

@@ -266,6 +266,15 @@ async fn a_plan_downloads_as_json_qgc_wpl_and_qgc_plan(app: App) {
             .len(),
         12
     );
+    // Webster Field's six cylinders are exclusion circles (radius in metres).
+    let circles = v["geoFence"]["circles"].as_array().unwrap();
+    assert_eq!(circles.len(), 6);
+    assert!(circles.iter().all(|c| c["inclusion"] == false));
+    assert_eq!(
+        circles[0]["circle"]["center"],
+        json!([38.146689, -76.426475])
+    );
+    assert!((circles[0]["circle"]["radius"].as_f64().unwrap() - 150.0 * 0.3048).abs() < 0.01);
 
     let r = app.get(&format!("{base}?format=kml")).await;
     problem(r, 400).await;
