@@ -12,6 +12,7 @@ pub mod avoid;
 pub mod doc;
 pub mod health;
 pub mod missions;
+pub mod obstacles;
 pub mod operator;
 pub mod plan_files;
 pub mod plan_record;
@@ -55,6 +56,7 @@ pub fn router() -> OpenApiRouter<AppState> {
         .merge(plans::router())
         .merge(plan_files::router())
         .merge(avoid::router())
+        .merge(obstacles::router())
         .merge(risk::router())
     // jink:routes -- register each new API module above this line with `.merge(module::router())`
 }

@@ -61,8 +61,10 @@ pub enum StrategyIn {
 #[serde(deny_unknown_fields)]
 pub struct AircraftIn {
     /// Cruise speed, m/s (default 20; telemetry speed wins when reported).
+    #[schema(exclusive_minimum = 0)]
     pub speed_mps: Option<f64>,
     /// Minimum turn radius, metres (default 40).
+    #[schema(minimum = 0)]
     pub turn_radius_m: Option<f64>,
 }
 
@@ -73,20 +75,27 @@ pub struct AircraftIn {
 pub struct PlanBody {
     /// Seed of the plan's random choices (default: drawn and returned). Same inputs and
     /// seed, same plan.
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub seed: Option<u64>,
     /// Compute budget, milliseconds (anytime: the best plan found by then). Default none.
+    #[schema(minimum = 1, maximum = 60000)]
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub deadline_ms: Option<u64>,
     /// Planner, default `bisection`.
     pub strategy: Option<StrategyIn>,
     /// The revision the aircraft flies (0 or absent = the mission's own waypoints). Older
     /// than the latest revision: 409.
+    #[schema(minimum = 0)]
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub base_revision: Option<i64>,
     /// Index in the base stack the aircraft flies toward (MAVLink current sequence).
     /// Default: the base plan's, or 0.
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub current_index: Option<usize>,
     /// Aircraft performance.
     pub aircraft: Option<AircraftIn>,
     /// Prediction horizon, seconds, default 60.
+    #[schema(exclusive_minimum = 0, maximum = 600)]
     pub horizon_s: Option<f64>,
 }
 
@@ -161,7 +170,7 @@ pub enum StartSource {
 }
 
 /// An obstacle observation used by a plan (the stored observation's wire form).
-pub type ObservationUsed = super::telemetry::ObservationOut;
+pub type ObservationUsed = wire::telemetry::ObservationOut;
 
 /// Everything a plan depends on besides the mission: stored with it for replay.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -227,15 +236,8 @@ impl ObservationWindow {
                 self.received_until_us,
             )
             .await?
-            .into_iter()
-            .map(|o| ObservationUsed {
-                obstacle_id: o.obstacle_id,
-                t: o.t_s,
-                lat: o.lat_deg,
-                lon: o.lon_deg,
-                alt_msl_m: o.alt_msl_m,
-                radius_m: o.radius_m,
-            })
+            .iter()
+            .map(ObservationUsed::from)
             .collect())
     }
 }
@@ -400,17 +402,7 @@ pub struct Computed {
 /// A snapshot built from explicit observations (offline plans, plans stored before live
 /// state), fed in time then obstacle order.
 pub fn snapshot_from_observations(mission: &Mission, observations: &[ObservationUsed]) -> Snapshot {
-    let mut rows: Vec<crate::store::ObservationRow> = observations
-        .iter()
-        .map(|o| crate::store::ObservationRow {
-            obstacle_id: o.obstacle_id.clone(),
-            t_s: o.t,
-            lat_deg: o.lat,
-            lon_deg: o.lon,
-            alt_msl_m: o.alt_msl_m,
-            radius_m: o.radius_m,
-        })
-        .collect();
+    let mut rows: Vec<crate::store::ObservationRow> = observations.iter().map(Into::into).collect();
     crate::store::observations::sort_feeding_order(&mut rows);
     let mut p = Predictor::new(crate::live::snapshot::predictor_config());
     crate::live::snapshot::feed(&mut p, &mission.frame(), &rows);

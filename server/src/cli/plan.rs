@@ -11,7 +11,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
-use serde::Deserialize;
 
 use crate::api::plans::{
     ObservationUsed, PlanInputs, StrategyIn, compute, new_seed, plan_out, stack_start,
@@ -47,21 +46,6 @@ pub struct PlanArgs {
     pub deadline_ms: Option<u64>,
 }
 
-#[derive(Debug, Deserialize)]
-struct ObsFile {
-    observations: Vec<ObsIn>,
-}
-
-#[derive(Debug, Deserialize)]
-struct ObsIn {
-    obstacle_id: String,
-    t: crate::time::WireTime,
-    lat: f64,
-    lon: f64,
-    alt_msl_m: f64,
-    radius_m: f64,
-}
-
 fn fail(msg: impl std::fmt::Display) -> ExitCode {
     eprintln!("jink plan: {msg}");
     ExitCode::from(1)
@@ -83,22 +67,21 @@ pub fn run(args: PlanArgs) -> ExitCode {
     let observations: Vec<ObservationUsed> = match &args.obstacles {
         None => Vec::new(),
         Some(p) => {
-            let parsed: Result<ObsFile, String> = std::fs::read_to_string(p)
+            let parsed = std::fs::read_to_string(p)
                 .map_err(|e| e.to_string())
-                .and_then(|t| serde_json::from_str(&t).map_err(|e| e.to_string()));
-            match parsed {
-                Ok(f) => f
-                    .observations
-                    .into_iter()
-                    .map(|o| ObservationUsed {
-                        obstacle_id: o.obstacle_id,
-                        t: o.t.0,
-                        lat: o.lat,
-                        lon: o.lon,
-                        alt_msl_m: o.alt_msl_m,
-                        radius_m: o.radius_m,
+                .and_then(|t| serde_json::from_str(&t).map_err(|e| e.to_string()))
+                .and_then(|v| {
+                    wire::telemetry::parse_observations(v, None, 0.0).map_err(|e| match e {
+                        wire::WireError::Validation(errs) => errs
+                            .iter()
+                            .map(|e| format!("{}: {}", e.pointer, e.detail))
+                            .collect::<Vec<_>>()
+                            .join("; "),
+                        other => other.to_string(),
                     })
-                    .collect(),
+                });
+            match parsed {
+                Ok(rows) => rows.iter().map(ObservationUsed::from).collect(),
                 Err(e) => return fail(format!("{}: {e}", p.display())),
             }
         }
