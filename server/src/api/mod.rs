@@ -19,6 +19,7 @@ pub mod plan_record;
 pub mod plans;
 pub mod reactive;
 pub mod risk;
+pub mod search;
 pub mod telemetry;
 
 /// The document's fixed parts; paths and schemas come from the routers.
@@ -58,6 +59,7 @@ pub fn router() -> OpenApiRouter<AppState> {
         .merge(avoid::router())
         .merge(obstacles::router())
         .merge(risk::router())
+        .merge(search::router())
     // jink:routes -- register each new API module above this line with `.merge(module::router())`
 }
 

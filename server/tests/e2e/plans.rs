@@ -14,6 +14,7 @@ both_stores!(
     the_same_seed_replays_the_same_plan,
     insert_waypoint_answers_the_seed_004_example,
     a_stored_plan_replays_identically_even_after_more_telemetry,
+    the_search_area_ladder_covers_the_search_grid_with_validated_parameters,
 );
 
 /// Time of obstacle "0"'s first observation, Unix seconds.
@@ -433,5 +434,58 @@ async fn a_stored_plan_replays_identically_even_after_more_telemetry(app: App) {
         .send()
         .await
         .unwrap();
+    problem(r, 404).await;
+}
+
+async fn the_search_area_ladder_covers_the_search_grid_with_validated_parameters(app: App) {
+    let m = fixture("mission_2021_webster_field.json");
+    let id = app.create_mission(&m).await;
+    let path = format!("/api/v1/missions/{id}/search-pattern");
+    let r = app
+        .post_json(&path, &json!({"spacing_m": 100.0, "heading_deg": 90.0}))
+        .await;
+    assert_eq!(r.status(), 200);
+    let v: Value = r.json().await.unwrap();
+    let lines = v["lines"].as_u64().unwrap();
+    let wps = v["waypoints"].as_array().unwrap();
+    assert!(lines >= 2, "{v}");
+    assert_eq!(wps.len() as u64, 2 * lines);
+    assert_eq!(v["order"], "boustrophedon");
+    // Every waypoint lies within the search grid's bounds (1 m of slack).
+    let grid = m["searchGridPoints"].as_array().unwrap();
+    let range = |k: &str| {
+        grid.iter()
+            .map(|p| p[k].as_f64().unwrap())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(x), b.max(x))
+            })
+    };
+    let ((lat0, lat1), (lon0, lon1)) = (range("latitude"), range("longitude"));
+    for w in wps {
+        let (lat, lon) = (w["lat"].as_f64().unwrap(), w["lon"].as_f64().unwrap());
+        assert!(lat > lat0 - 1e-5 && lat < lat1 + 1e-5, "{w}");
+        assert!(lon > lon0 - 1e-5 && lon < lon1 + 1e-5, "{w}");
+    }
+    // Lines closer than two turn radii are flown in skip order.
+    let v = app
+        .post_json(&path, &json!({"spacing_m": 30.0, "turn_radius_m": 40.0}))
+        .await
+        .json::<Value>()
+        .await
+        .unwrap();
+    assert_eq!(v["order"], "skip", "{v}");
+    // Bad parameters are 422 naming each field.
+    let r = app
+        .post_json(&path, &json!({"spacing_m": 0.5, "heading_deg": 400.0}))
+        .await;
+    assert_eq!(
+        pointers(&problem(r, 422).await),
+        vec!["/spacing_m".to_string(), "/heading_deg".to_string()]
+    );
+    let r = app.post_json(&path, &json!({"order": "spiral"})).await;
+    problem(r, 400).await;
+    let r = app
+        .post_json("/api/v1/missions/nope/search-pattern", &json!({}))
+        .await;
     problem(r, 404).await;
 }
