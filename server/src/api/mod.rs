@@ -63,6 +63,24 @@ pub fn router() -> OpenApiRouter<AppState> {
     // jink:routes -- register each new API module above this line with `.merge(module::router())`
 }
 
+/// 303 See Other to `location` (an older query form answered by the operation that now
+/// serves it). Build `location` from stored ids only, which are plain ASCII.
+///
+/// # Errors
+/// 500 when `location` is not a valid header value.
+pub(crate) fn see_other(
+    location: &str,
+) -> Result<axum::response::Response, crate::error::ApiError> {
+    use axum::response::IntoResponse;
+    let mut resp = axum::http::StatusCode::SEE_OTHER.into_response();
+    resp.headers_mut().insert(
+        axum::http::header::LOCATION,
+        axum::http::HeaderValue::from_str(location)
+            .map_err(|e| crate::error::ApiError::Internal(e.to_string()))?,
+    );
+    Ok(resp)
+}
+
 /// The OpenAPI document as the code describes it, completed by [`doc::complete`].
 pub fn openapi() -> utoipa::openapi::OpenApi {
     let mut value =

@@ -862,12 +862,7 @@ async fn get_plan(
             "qgc-plan"
         };
         let location = format!("/api/v1/missions/{id}/plans/{plan_id}/{file}");
-        let mut resp = StatusCode::SEE_OTHER.into_response();
-        resp.headers_mut().insert(
-            header::LOCATION,
-            HeaderValue::from_str(&location).map_err(|e| ApiError::Internal(e.to_string()))?,
-        );
-        return Ok(resp);
+        return super::see_other(&location);
     }
     plan_file(&state, &id, &plan_id, fmt).await
 }

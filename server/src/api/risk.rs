@@ -7,7 +7,7 @@
 //! at the same moment uses.
 
 use axum::extract::{Path, State};
-use axum::http::{HeaderValue, StatusCode, header};
+use axum::http::{HeaderValue, header};
 use axum::response::{IntoResponse, Response};
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
@@ -199,12 +199,7 @@ async fn get_risk(
         super::missions::load(&state, &id).await?;
         let query = q.t.map(|t| format!("?t={t}")).unwrap_or_default();
         let location = format!("/api/v1/missions/{id}/risk/png{query}");
-        let mut resp = StatusCode::SEE_OTHER.into_response();
-        resp.headers_mut().insert(
-            header::LOCATION,
-            HeaderValue::from_str(&location).map_err(|e| ApiError::Internal(e.to_string()))?,
-        );
-        return Ok(resp);
+        return super::see_other(&location);
     }
     let out = with_slice(&state, &id, q.t, |s| {
         let frame = s.snap.frame;
