@@ -888,6 +888,35 @@ pub(crate) async fn plan_file(
     if matches!(fmt, PlanFormat::Json) {
         return Ok(axum::Json(out).into_response());
     }
+    let (text, ctype, ext) = plan_file_text(&mission, &out, fmt);
+    let mut resp = text.into_response();
+    let h = resp.headers_mut();
+    h.insert(header::CONTENT_TYPE, HeaderValue::from_static(ctype));
+    h.insert(
+        header::CONTENT_DISPOSITION,
+        HeaderValue::from_str(&format!(
+            "attachment; filename=\"{id}-r{}.{ext}\"",
+            out.revision
+        ))
+        .map_err(|e| ApiError::Internal(e.to_string()))?,
+    );
+    Ok(resp)
+}
+
+/// A plan as a file: (contents, media type, file extension). `fmt` `json` gives the plan
+/// as pretty JSON; `qgc-wpl` a QGC WPL 110 text file (index 0 = home); `qgc-plan` a
+/// QGroundControl `.plan` with the fly zones as inclusion fences and the cylinders as
+/// exclusion circles.
+pub fn plan_file_text(
+    mission: &Mission,
+    out: &PlanOut,
+    fmt: PlanFormat,
+) -> (String, &'static str, &'static str) {
+    if matches!(fmt, PlanFormat::Json) {
+        let mut s = serde_json::to_string_pretty(out).unwrap_or_default();
+        s.push('\n');
+        return (s, "application/json", "json");
+    }
     let home = GeoItem {
         lat_deg: mission.home.lat,
         lon_deg: mission.home.lon,
@@ -908,7 +937,7 @@ pub(crate) async fn plan_file(
             },
         })
         .collect();
-    let (text, ctype, ext) = match fmt {
+    match fmt {
         PlanFormat::QgcWpl => (
             qgc_wpl(&home, &items),
             "text/plain; charset=utf-8",
@@ -953,22 +982,9 @@ pub(crate) async fn plan_file(
                 "plan",
             )
         }
-    };
-    let mut resp = text.into_response();
-    let h = resp.headers_mut();
-    h.insert(header::CONTENT_TYPE, HeaderValue::from_static(ctype));
-    h.insert(
-        header::CONTENT_DISPOSITION,
-        HeaderValue::from_str(&format!(
-            "attachment; filename=\"{id}-r{}.{ext}\"",
-            out.revision
-        ))
-        .map_err(|e| ApiError::Internal(e.to_string()))?,
-    );
-    Ok(resp)
+    }
 }
 
-/// Plan routes.
 /// The result of replaying a stored plan.
 #[derive(Debug, Serialize, ToSchema)]
 pub struct ReplayOut {

@@ -489,3 +489,67 @@ async fn the_search_area_ladder_covers_the_search_grid_with_validated_parameters
         .await;
     problem(r, 404).await;
 }
+
+#[test]
+fn jink_plan_starts_from_a_given_position_and_writes_wpl_and_qgc_plan_files() {
+    let mission = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/fixtures/interop/mission_2021_webster_field.json");
+    let dir = tempfile::tempdir().unwrap();
+    let jink = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
+            .args(["plan", "--mission"])
+            .arg(&mission)
+            .args(["--seed", "3"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    // JSON: the start is the given position and heading.
+    let out = jink(&["--position", "38.1450,-76.4270,70", "--heading", "45"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let p: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(p["start"]["lat"], 38.145);
+    assert_eq!(p["start"]["lon"], -76.427);
+    assert_eq!(p["start"]["alt_msl_m"], 70.0);
+    assert_eq!(p["start"]["heading_deg"], 45.0);
+    // WPL to a file: header, home, then one line per stack item.
+    let wpl = dir.path().join("plan.waypoints");
+    let out = jink(&[
+        "--position",
+        "38.1450,-76.4270",
+        "--format",
+        "wpl",
+        "--out",
+        wpl.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.stdout.is_empty());
+    let text = std::fs::read_to_string(&wpl).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "QGC WPL 110");
+    assert_eq!(lines.len(), 2 + p["waypoints"].as_array().unwrap().len());
+    // .plan: the six cylinders as exclusion circles.
+    let out = jink(&["--format", "qgc-plan"]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["fileType"], "Plan");
+    assert_eq!(v["geoFence"]["circles"].as_array().unwrap().len(), 6);
+    // Bad input names the flag.
+    for (args, flag) in [
+        (&["--position", "95,-76.4"][..], "--position"),
+        (&["--heading", "400"][..], "--heading"),
+        (&["--format", "kml"][..], "format"),
+    ] {
+        let out = jink(args);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(flag), "{err}");
+    }
+}
