@@ -14,9 +14,10 @@ use std::process::ExitCode;
 
 use clap::Args;
 
+use crate::api::plan_files::plan_file_text;
 use crate::api::plans::{
     ObservationUsed, PlanFormat, PlanInputs, StartOut, StartSource, StrategyIn, compute, new_seed,
-    plan_file_text, plan_out, stack_start,
+    plan_out, stack_start,
 };
 use crate::mission::Mission;
 
