@@ -147,3 +147,56 @@ impl<S: Send + Sync, T: DeserializeOwned> FromRequestParts<S> for ApiQuery<T> {
             })
     }
 }
+
+/// `#[serde(default, deserialize_with = "crate::extract::opt_integer")]` for an optional
+/// integer field: JSON Schema counts `301.0` as an integer, so an integral number written
+/// with a fraction is accepted; a fractional one (`1.5`) or one out of `T`'s range is a
+/// type error naming the field.
+pub(crate) fn opt_integer<'de, D, T>(d: D) -> Result<Option<T>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+    T: TryFrom<i128>,
+{
+    use serde::Deserialize;
+    use serde::de::Error;
+    let Some(n) = Option::<serde_json::Number>::deserialize(d)? else {
+        return Ok(None);
+    };
+    let v: i128 = match (n.as_u64(), n.as_i64(), n.as_f64()) {
+        (Some(u), _, _) => u.into(),
+        (_, Some(i), _) => i.into(),
+        (_, _, Some(f)) if f.fract() == 0.0 && f.abs() < 1.8e19 => f as i128,
+        _ => return Err(D::Error::custom(format!("{n} is not an integer"))),
+    };
+    T::try_from(v)
+        .map(Some)
+        .map_err(|_| D::Error::custom(format!("{n} is out of range")))
+}
+
+#[cfg(test)]
+mod tests {
+    #[derive(Debug, serde::Deserialize)]
+    struct Body {
+        #[serde(default, deserialize_with = "super::opt_integer")]
+        n: Option<u8>,
+    }
+
+    fn n(json: &str) -> Result<Option<u8>, String> {
+        serde_json::from_str::<Body>(json)
+            .map(|b| b.n)
+            .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn integral_numbers_are_integers_whatever_their_spelling() {
+        assert_eq!(n(r#"{"n": 7}"#), Ok(Some(7)));
+        assert_eq!(n(r#"{"n": 7.0}"#), Ok(Some(7)));
+        assert_eq!(n(r#"{"n": 7e0}"#), Ok(Some(7)));
+        assert_eq!(n(r#"{}"#), Ok(None));
+        assert_eq!(n(r#"{"n": null}"#), Ok(None));
+        assert!(n(r#"{"n": 7.5}"#).unwrap_err().contains("not an integer"));
+        assert!(n(r#"{"n": 256}"#).unwrap_err().contains("out of range"));
+        assert!(n(r#"{"n": -1}"#).unwrap_err().contains("out of range"));
+        assert!(n(r#"{"n": "7"}"#).is_err());
+    }
+}

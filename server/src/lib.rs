@@ -12,6 +12,7 @@ pub mod error;
 pub mod extract;
 pub mod live;
 pub mod metrics;
+mod render;
 pub mod store;
 
 pub use wire::{geodesy, interop, mission, time};

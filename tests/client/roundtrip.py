@@ -16,8 +16,9 @@ sys.path.insert(0, generated)
 from jink_client import Client  # noqa: E402
 from jink_client.api.missions import create_mission, get_mission  # noqa: E402
 from jink_client.api.plans import create_plan, get_plan, get_plan_qgc, get_plan_wpl  # noqa: E402
-from jink_client.api.prediction import get_risk, list_obstacles  # noqa: E402
+from jink_client.api.prediction import get_risk, get_risk_png, list_obstacles  # noqa: E402
 from jink_client.api.telemetry import post_obstacles, post_telemetry  # noqa: E402
+from jink_client.types import File  # noqa: E402
 from jink_client.models import (  # noqa: E402
     AircraftTelemetry,
     SourceFormat,
@@ -99,6 +100,8 @@ assert qgc["fileType"] == "Plan" and len(qgc["mission"]["items"]) == len(plan.wa
 
 risk = step("read the risk map", get_risk.sync_detailed(mid, client=client, t=10.0), 200, RiskSliceOut)
 assert len(risk.values) == risk.width * risk.height > 0, (risk.width, risk.height)
+png = step("read the risk map as a PNG", get_risk_png.sync_detailed(mid, client=client, t=10.0), 200, File)
+assert png.payload.read(8) == b"\x89PNG\r\n\x1a\n", "a PNG"
 
 step("a second plan on revision 1", create_plan.sync_detailed(
     mid, client=client, body=PlanBody(seed=7, base_revision=1)), 201, PlanOut)

@@ -7,6 +7,8 @@
 //!   detection and conversion into native types (feet and knots into metres and m/s);
 //! - [`domain`]: JSON text or value -> detected format -> parsed -> validated mission, and
 //!   its conversion into the planner's ENU domain types (`planner::Mission`);
+//! - [`telemetry`]: moving-obstacle observations and aircraft telemetry (native and interop)
+//!   into validated [`telemetry::Observation`]s and [`telemetry::AircraftSample`]s;
 //! - [`coords`]: the one latitude/longitude validator;
 //! - [`ids`]: typed ids (`MissionId`, `PlanId`, `ObstacleId`);
 //! - [`time`]: wire timestamps (RFC 3339 or Unix seconds);
@@ -22,6 +24,7 @@ pub mod geodesy;
 pub mod ids;
 pub mod interop;
 pub mod mission;
+pub mod telemetry;
 pub mod time;
 
 pub use error::{FieldError, WireError, from_value};

@@ -20,7 +20,9 @@ impl utoipa::PartialSchema for WireTime {
                 ObjectBuilder::new()
                     .schema_type(Type::String)
                     .format(Some(SchemaFormat::KnownFormat(KnownFormat::DateTime)))
-                    .description(Some("RFC 3339, e.g. 2026-06-14T15:04:05.25Z")),
+                    // Years 1970 to 9999: Unix seconds are never negative.
+                    .pattern(Some(r"^(19[7-9][0-9]|[2-9][0-9]{3})-"))
+                    .description(Some("RFC 3339 from 1970 on, e.g. 2026-06-14T15:04:05.25Z")),
             )
             .item(
                 ObjectBuilder::new()

@@ -24,10 +24,13 @@ use crate::mission::LatLon;
 #[serde(deny_unknown_fields)]
 pub struct ObstacleIn {
     /// Centre latitude, degrees.
+    #[schema(minimum = -90, maximum = 90)]
     pub lat: f64,
     /// Centre longitude, degrees.
+    #[schema(minimum = -180, maximum = 180)]
     pub lon: f64,
     /// Radius, metres (> 0).
+    #[schema(exclusive_minimum = 0)]
     pub radius_m: f64,
 }
 
@@ -47,9 +50,11 @@ pub struct InsertRequest {
     /// The obstacle.
     pub obstacle: ObstacleIn,
     /// Safety buffer as a fraction of the radius, default 0.2 (seed 004).
+    #[schema(minimum = 0)]
     pub buffer_fraction: Option<f64>,
     /// Optional fly-zone boundary (at least 3 points): candidates whose point or new legs
     /// leave it are discarded.
+    #[schema(min_items = 3)]
     pub fly_zone: Option<Vec<LatLon>>,
 }
 

@@ -9,6 +9,8 @@
 //! - `Mission` is one flat object (openapi-python-client cannot merge the `allOf` of the
 //!   derived schema, whose `home` is optional in the input and required in the output);
 //! - `WireTime` is typed: an RFC 3339 string or Unix seconds;
+//! - image responses are binary strings;
+//! - array items carry their constraints (`scan_radii_m` of the offset request: in (0, 1e6]);
 //! - `POST /api/v1/missions` links to every mission-scoped operation by the created id;
 //! - its request body is a `oneOf` naming each accepted format: native, interop 2017/2018
 //!   (one mission or the `GET /api/missions` list) and interop 2019+ protobuf-JSON. The
@@ -26,6 +28,41 @@ pub fn complete(doc: &mut Value) {
     type_wire_time(doc);
     add_error_statuses(doc);
     add_mission_links(doc);
+    constrain_array_items(doc);
+    binary_images(doc);
+}
+
+/// Image responses are binary strings (utoipa describes a `Vec<u8>` body as an array of
+/// integers).
+fn binary_images(doc: &mut Value) {
+    let Some(paths) = doc["paths"].as_object_mut() else {
+        return;
+    };
+    let responses = paths
+        .values_mut()
+        .filter_map(Value::as_object_mut)
+        .flat_map(|ops| ops.values_mut())
+        .filter_map(|op| op.get_mut("responses").and_then(Value::as_object_mut))
+        .flat_map(|rs| rs.values_mut());
+    for resp in responses {
+        let Some(content) = resp.get_mut("content").and_then(Value::as_object_mut) else {
+            continue;
+        };
+        for (media, c) in content.iter_mut() {
+            if media.starts_with("image/") {
+                c["schema"] = json!({"type": "string", "format": "binary"});
+            }
+        }
+    }
+}
+
+/// Item constraints the derives cannot attach to a `Vec<f64>`'s items.
+fn constrain_array_items(doc: &mut Value) {
+    let radii = &mut doc["components"]["schemas"]["OffsetRequest"]["properties"]["scan_radii_m"];
+    if radii.is_object() {
+        radii["items"]["exclusiveMinimum"] = json!(0);
+        radii["items"]["maximum"] = json!(1_000_000);
+    }
 }
 
 fn problem(description: &str) -> Value {

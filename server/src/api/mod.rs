@@ -12,12 +12,15 @@ pub mod avoid;
 pub mod doc;
 pub mod health;
 pub mod missions;
+pub mod obstacles;
 pub mod operator;
 pub mod plan_files;
 pub mod plan_record;
+pub mod plan_types;
 pub mod plans;
 pub mod reactive;
 pub mod risk;
+pub mod search;
 pub mod telemetry;
 
 /// The document's fixed parts; paths and schemas come from the routers.
@@ -55,8 +58,28 @@ pub fn router() -> OpenApiRouter<AppState> {
         .merge(plans::router())
         .merge(plan_files::router())
         .merge(avoid::router())
+        .merge(obstacles::router())
         .merge(risk::router())
+        .merge(search::router())
     // jink:routes -- register each new API module above this line with `.merge(module::router())`
+}
+
+/// 303 See Other to `location` (an older query form answered by the operation that now
+/// serves it). Build `location` from stored ids only, which are plain ASCII.
+///
+/// # Errors
+/// 500 when `location` is not a valid header value.
+pub(crate) fn see_other(
+    location: &str,
+) -> Result<axum::response::Response, crate::error::ApiError> {
+    use axum::response::IntoResponse;
+    let mut resp = axum::http::StatusCode::SEE_OTHER.into_response();
+    resp.headers_mut().insert(
+        axum::http::header::LOCATION,
+        axum::http::HeaderValue::from_str(location)
+            .map_err(|e| crate::error::ApiError::Internal(e.to_string()))?,
+    );
+    Ok(resp)
 }
 
 /// The OpenAPI document as the code describes it, completed by [`doc::complete`].

@@ -306,7 +306,7 @@ mod tests {
             },
             obstacles: vec![PlanObstacle {
                 id: "0".into(),
-                stage: crate::api::risk::StageOut::Random,
+                stage: crate::api::obstacles::StageOut::Random,
                 last_t: created_at_s - 1.0,
                 considered: true,
                 left_out: None,

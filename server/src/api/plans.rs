@@ -1,7 +1,8 @@
 //! Plans: `POST /api/v1/missions/{id}/plan` computes a revised waypoint stack with
 //! `planner::plan` (static pre-pass of seed 004 + Monte Carlo bisection of seed 002) and
-//! stores it as the mission's next revision; `GET /api/v1/missions/{id}/plans/{plan_id}`
-//! returns it as JSON, QGC WPL 110 or a QGroundControl `.plan` file.
+//! stores it as the mission's next revision; `POST .../plans/{plan_id}/replay` recomputes a
+//! stored plan. Its wire types are in [`super::plan_types`], its downloads in
+//! [`super::plan_files`].
 //!
 //! The start is the latest aircraft telemetry (else the stack item before the current
 //! index, at the current time). Dynamic risk comes from the mission's live snapshot
@@ -21,23 +22,24 @@ use axum::extract::{Path, State};
 use axum::http::{HeaderValue, StatusCode, header};
 use axum::response::{IntoResponse, Response};
 use serde::{Deserialize, Serialize};
-use utoipa::{IntoParams, ToSchema};
+use utoipa::ToSchema;
 use utoipa_axum::{router::OpenApiRouter, routes};
 
-use planner::export::{GeoItem, GeoPoint, PlanFileOptions, qgc_plan, qgc_wpl};
-use planner::{ItemKind, PlanOutcome, StackItem, Strategy};
+use planner::{ItemKind, StackItem, Strategy};
 use predictor::Predictor;
 
 use super::plan_record::{PlanRecord, stored_plan_out};
 use crate::app::AppState;
 use crate::error::{ApiError, Problem};
-use crate::extract::{ApiJson, ApiQuery};
+use crate::extract::ApiJson;
 use crate::live::Snapshot;
 use crate::live::plan_view::{PlanObstacle, PlanWarning, plan_view};
 use crate::mission::Mission;
 use crate::store::plans::{InsertPlanError, PlanRow};
 use crate::time::{format_rfc3339, now_s};
 use wire::ids::{MissionId, PlanId};
+
+pub use super::plan_types::*;
 
 /// Longest accepted `deadline_ms`.
 const MAX_DEADLINE_MS: u64 = 60_000;
@@ -60,8 +62,10 @@ pub enum StrategyIn {
 #[serde(deny_unknown_fields)]
 pub struct AircraftIn {
     /// Cruise speed, m/s (default 20; telemetry speed wins when reported).
+    #[schema(exclusive_minimum = 0)]
     pub speed_mps: Option<f64>,
     /// Minimum turn radius, metres (default 40).
+    #[schema(minimum = 0)]
     pub turn_radius_m: Option<f64>,
 }
 
@@ -72,291 +76,28 @@ pub struct AircraftIn {
 pub struct PlanBody {
     /// Seed of the plan's random choices (default: drawn and returned). Same inputs and
     /// seed, same plan.
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub seed: Option<u64>,
     /// Compute budget, milliseconds (anytime: the best plan found by then). Default none.
+    #[schema(minimum = 1, maximum = 60000)]
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub deadline_ms: Option<u64>,
     /// Planner, default `bisection`.
     pub strategy: Option<StrategyIn>,
     /// The revision the aircraft flies (0 or absent = the mission's own waypoints). Older
     /// than the latest revision: 409.
+    #[schema(minimum = 0)]
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub base_revision: Option<i64>,
     /// Index in the base stack the aircraft flies toward (MAVLink current sequence).
     /// Default: the base plan's, or 0.
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub current_index: Option<usize>,
     /// Aircraft performance.
     pub aircraft: Option<AircraftIn>,
     /// Prediction horizon, seconds, default 60.
+    #[schema(exclusive_minimum = 0, maximum = 600)]
     pub horizon_s: Option<f64>,
-}
-
-/// What a stack item is for.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum KindOut {
-    /// A mission waypoint (never moved).
-    Mission,
-    /// Inserted by the planner to avoid an obstacle.
-    Avoid,
-    /// A search-pattern waypoint.
-    Search,
-}
-
-/// One stack item.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct PlanWaypoint {
-    /// Latitude, degrees.
-    pub lat: f64,
-    /// Longitude, degrees.
-    pub lon: f64,
-    /// Altitude, metres MSL.
-    pub alt_msl_m: f64,
-    /// What it is for.
-    pub kind: KindOut,
-    /// Index into the mission's waypoints, for mission items.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub mission_index: Option<usize>,
-}
-
-/// Tail rewrite from the base stack (MAVLink: delete `remove` items from `first_changed`,
-/// then write `insert` from there).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct DiffOut {
-    /// First index that differs; null when nothing changes.
-    pub first_changed: Option<usize>,
-    /// Items to delete from `first_changed` to the old end.
-    pub remove: usize,
-    /// Items to write from `first_changed` on.
-    pub insert: Vec<PlanWaypoint>,
-}
-
-/// Where the plan starts.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct StartOut {
-    /// `telemetry` (the latest aircraft telemetry) or `stack` (no telemetry: the item before
-    /// the current index, now).
-    pub source: StartSource,
-    /// Time, Unix seconds.
-    pub t: f64,
-    /// Latitude, degrees.
-    pub lat: f64,
-    /// Longitude, degrees.
-    pub lon: f64,
-    /// Altitude, metres MSL.
-    pub alt_msl_m: f64,
-    /// Heading, degrees true.
-    pub heading_deg: f64,
-    /// Ground speed, m/s (0 = unknown).
-    pub speed_mps: f64,
-}
-
-/// Where the start came from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum StartSource {
-    /// Latest aircraft telemetry.
-    Telemetry,
-    /// No telemetry: a stack item.
-    Stack,
-}
-
-/// An obstacle observation used by a plan (the stored observation's wire form).
-pub type ObservationUsed = super::telemetry::ObservationOut;
-
-/// Everything a plan depends on besides the mission: stored with it for replay.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PlanInputs {
-    /// Seed.
-    pub seed: u64,
-    /// Strategy.
-    pub strategy: StrategyIn,
-    /// Deadline, ms.
-    pub deadline_ms: Option<u64>,
-    /// Horizon, seconds.
-    pub horizon_s: f64,
-    /// Cruise speed, m/s.
-    pub speed_mps: f64,
-    /// Turn radius, m.
-    pub turn_radius_m: f64,
-    /// Current index in `stack`.
-    pub current_index: usize,
-    /// The base stack (empty = the mission's waypoints).
-    pub stack: Vec<PlanWaypoint>,
-    /// The start.
-    pub start: StartOut,
-    /// Observations fed to the predictor (offline `jink plan`; server plans name their
-    /// batches with `observation_seq` instead).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub observations: Vec<ObservationUsed>,
-    /// Plans stored before live state: the stored observations they used, for replay.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub observation_window: Option<ObservationWindow>,
-    /// Server plans: the live snapshot's cut-off, every observation batch `<=` this
-    /// sequence number (replay rebuilds the snapshot from the store).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub observation_seq: Option<i64>,
-}
-
-/// The stored observations a plan used: `after_us < t <= until_us`, received by
-/// `received_until_us` (Unix microseconds).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ObservationWindow {
-    /// Exclusive lower bound of observation time.
-    pub after_us: i64,
-    /// Inclusive upper bound of observation time.
-    pub until_us: i64,
-    /// Only observations received by then (the plan request's time).
-    pub received_until_us: i64,
-}
-
-impl ObservationWindow {
-    /// Fetches exactly these observations.
-    ///
-    /// # Errors
-    /// A database failure.
-    pub async fn fetch(
-        &self,
-        store: &crate::store::Store,
-        mission_id: &MissionId,
-    ) -> Result<Vec<ObservationUsed>, ApiError> {
-        Ok(store
-            .list_observations_window(
-                mission_id,
-                self.after_us,
-                self.until_us,
-                self.received_until_us,
-            )
-            .await?
-            .into_iter()
-            .map(|o| ObservationUsed {
-                obstacle_id: o.obstacle_id,
-                t: o.t_s,
-                lat: o.lat_deg,
-                lon: o.lon_deg,
-                alt_msl_m: o.alt_msl_m,
-                radius_m: o.radius_m,
-            })
-            .collect())
-    }
-}
-
-/// How dynamic risk was obtained.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct DynamicRisk {
-    /// `risk_map` (predictor risk map from observations) or `none`.
-    pub source: DynamicSource,
-    /// Moving obstacles considered (in the risk map).
-    pub obstacles: usize,
-}
-
-/// Dynamic risk source.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
-#[serde(rename_all = "snake_case")]
-pub enum DynamicSource {
-    /// The predictor's risk map.
-    RiskMap,
-    /// No moving obstacle observed: no dynamic risk.
-    None,
-}
-
-/// A plan as returned and stored.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
-pub struct PlanOut {
-    /// Plan id.
-    pub plan_id: String,
-    /// Mission id.
-    pub mission_id: String,
-    /// Revision (1, 2, ... per mission).
-    pub revision: i64,
-    /// The revision this plan revises (0 = the mission's waypoints).
-    pub base_revision: i64,
-    /// `exact`, `approximate`, `timeout`, `no_safe_path`, `start_inside_obstacle`,
-    /// `start_outside_fly_zone`, `waypoint_inside_cylinder`. A plan is returned in every
-    /// case (the least-risk one found).
-    pub outcome: String,
-    /// Seed used.
-    pub seed: u64,
-    /// Index to fly toward now.
-    pub current_index: usize,
-    /// The whole revised stack (items before `current_index` unchanged).
-    pub waypoints: Vec<PlanWaypoint>,
-    /// Tail rewrite from the base stack.
-    pub diff: DiffOut,
-    /// Peak risk along the remaining route within the horizon (1 = enters a cylinder or
-    /// leaves the fly zone).
-    pub risk: f64,
-    /// Peak risk of the base stack on the same metric.
-    pub base_risk: f64,
-    /// Risk exposure, metres flown at risk 1.
-    pub exposure_m: f64,
-    /// Remaining route length from the start, metres.
-    pub length_m: f64,
-    /// Avoid items in the remaining route.
-    pub added: usize,
-    /// Stack indices of avoid items whose turns are too sharp for the turn radius.
-    pub turn_violations: Vec<usize>,
-    /// Planning time, milliseconds (risk map included).
-    pub compute_ms: f64,
-    /// Dynamic risk used.
-    pub dynamic_risk: DynamicRisk,
-    /// Every observed moving obstacle: its stage, its newest observation time, and
-    /// whether the plan considered it (else why not).
-    #[serde(default)]
-    pub obstacles: Vec<PlanObstacle>,
-    /// Anything suspicious about the inputs (clock mismatch, obstacles left out, no
-    /// telemetry); empty when all is well.
-    #[serde(default)]
-    pub warnings: Vec<PlanWarning>,
-    /// Observation batches the plan saw: all batches up to this sequence number.
-    #[serde(default)]
-    pub observation_seq: i64,
-    /// The start.
-    pub start: StartOut,
-    /// When it was computed (RFC 3339).
-    pub created_at: String,
-}
-
-/// `?format=` of a plan download.
-#[derive(Debug, Deserialize, IntoParams)]
-#[into_params(parameter_in = Query)]
-pub struct GetParams {
-    /// `json` (default), `qgc-wpl` (QGC WPL 110 text) or `qgc-plan` (QGroundControl
-    /// `.plan` JSON).
-    pub format: Option<PlanFormat>,
-}
-
-/// A plan download format.
-#[derive(Debug, Clone, Copy, Deserialize, ToSchema)]
-pub enum PlanFormat {
-    /// The plan as JSON.
-    #[serde(rename = "json")]
-    Json,
-    /// QGC WPL 110 text, index 0 = home.
-    #[serde(rename = "qgc-wpl")]
-    QgcWpl,
-    /// QGroundControl `.plan` JSON with the fly zone as geofence.
-    #[serde(rename = "qgc-plan")]
-    QgcPlan,
-}
-
-fn outcome_name(o: PlanOutcome) -> &'static str {
-    match o {
-        PlanOutcome::Exact => "exact",
-        PlanOutcome::Approximate => "approximate",
-        PlanOutcome::Timeout => "timeout",
-        PlanOutcome::NoSafePath => "no_safe_path",
-        PlanOutcome::StartInsideObstacle { .. } => "start_inside_obstacle",
-        PlanOutcome::StartOutsideFlyZone => "start_outside_fly_zone",
-        PlanOutcome::WaypointInsideCylinder { .. } => "waypoint_inside_cylinder",
-        _ => "unknown",
-    }
-}
-
-fn kind_out(k: ItemKind) -> KindOut {
-    match k {
-        ItemKind::Mission => KindOut::Mission,
-        ItemKind::Avoid => KindOut::Avoid,
-        ItemKind::Search => KindOut::Search,
-    }
 }
 
 /// The mission's own waypoints as a wire stack.
@@ -399,17 +140,7 @@ pub struct Computed {
 /// A snapshot built from explicit observations (offline plans, plans stored before live
 /// state), fed in time then obstacle order.
 pub fn snapshot_from_observations(mission: &Mission, observations: &[ObservationUsed]) -> Snapshot {
-    let mut rows: Vec<crate::store::ObservationRow> = observations
-        .iter()
-        .map(|o| crate::store::ObservationRow {
-            obstacle_id: o.obstacle_id.clone(),
-            t_s: o.t,
-            lat_deg: o.lat,
-            lon_deg: o.lon,
-            alt_msl_m: o.alt_msl_m,
-            radius_m: o.radius_m,
-        })
-        .collect();
+    let mut rows: Vec<crate::store::ObservationRow> = observations.iter().map(Into::into).collect();
     crate::store::observations::sort_feeding_order(&mut rows);
     let mut p = Predictor::new(crate::live::snapshot::predictor_config());
     crate::live::snapshot::feed(&mut p, &mission.frame(), &rows);
@@ -838,131 +569,6 @@ pub fn stack_start(
     }
 }
 
-/// One stored plan as JSON. `?format=qgc-wpl` / `qgc-plan` answers 303 to the plan's file
-/// download (`.../qgc-wpl`, `.../qgc-plan`), kept for older clients.
-#[utoipa::path(get, path = "/api/v1/missions/{id}/plans/{plan_id}", tag = "plans",
-    params(("id" = String, Path, description = "Mission id"), ("plan_id" = String, Path, description = "Plan id"), GetParams),
-    responses(
-        (status = 200, description = "The plan", body = PlanOut),
-        (status = 303, description = "`format=qgc-wpl` or `qgc-plan`: `Location` names the file download",
-            headers(("Location" = String, description = "URL of the file download"))),
-        (status = 400, description = "Unknown format", body = Problem, content_type = "application/problem+json"),
-        (status = 404, description = "No such mission or plan", body = Problem, content_type = "application/problem+json"),
-    ))]
-async fn get_plan(
-    State(state): State<AppState>,
-    Path((id, plan_id)): Path<(MissionId, PlanId)>,
-    ApiQuery(q): ApiQuery<GetParams>,
-) -> Result<Response, ApiError> {
-    let fmt = q.format.unwrap_or(PlanFormat::Json);
-    if !matches!(fmt, PlanFormat::Json) {
-        // Only stored ids (plain ASCII) reach the Location header.
-        super::missions::load(&state, &id).await?;
-        state
-            .store
-            .get_plan(&id, &plan_id)
-            .await?
-            .ok_or_else(|| ApiError::not_found("plan", plan_id.clone()))?;
-        let file = if matches!(fmt, PlanFormat::QgcWpl) {
-            "qgc-wpl"
-        } else {
-            "qgc-plan"
-        };
-        let location = format!("/api/v1/missions/{id}/plans/{plan_id}/{file}");
-        let mut resp = StatusCode::SEE_OTHER.into_response();
-        resp.headers_mut().insert(
-            header::LOCATION,
-            HeaderValue::from_str(&location).map_err(|e| ApiError::Internal(e.to_string()))?,
-        );
-        return Ok(resp);
-    }
-    plan_file(&state, &id, &plan_id, fmt).await
-}
-
-/// A stored plan in format `fmt`: the stored JSON, a QGC WPL 110 text file or a
-/// QGroundControl `.plan` file (as an attachment).
-///
-/// # Errors
-/// 404 when the mission or the plan does not exist.
-pub(crate) async fn plan_file(
-    state: &AppState,
-    id: &MissionId,
-    plan_id: &PlanId,
-    fmt: PlanFormat,
-) -> Result<Response, ApiError> {
-    let mission = super::missions::load(state, id).await?;
-    let row = state
-        .store
-        .get_plan(id, plan_id)
-        .await?
-        .ok_or_else(|| ApiError::not_found("plan", plan_id))?;
-    let out = stored_plan_out(&row)?;
-    if matches!(fmt, PlanFormat::Json) {
-        return Ok(axum::Json(out).into_response());
-    }
-    let home = GeoItem {
-        lat_deg: mission.home.lat,
-        lon_deg: mission.home.lon,
-        alt_msl_m: mission.home.alt_msl_m.unwrap_or(0.0),
-        kind: ItemKind::Mission,
-    };
-    let items: Vec<GeoItem> = out
-        .waypoints
-        .iter()
-        .map(|w| GeoItem {
-            lat_deg: w.lat,
-            lon_deg: w.lon,
-            alt_msl_m: w.alt_msl_m,
-            kind: match w.kind {
-                KindOut::Mission => ItemKind::Mission,
-                KindOut::Avoid => ItemKind::Avoid,
-                KindOut::Search => ItemKind::Search,
-            },
-        })
-        .collect();
-    let (text, ctype, ext) = match fmt {
-        PlanFormat::QgcWpl => (
-            qgc_wpl(&home, &items),
-            "text/plain; charset=utf-8",
-            "waypoints",
-        ),
-        _ => {
-            let zones: Vec<Vec<GeoPoint>> = mission
-                .content
-                .fly_zones
-                .iter()
-                .map(|z| {
-                    z.boundary
-                        .iter()
-                        .map(|p| GeoPoint {
-                            lat_deg: p.lat,
-                            lon_deg: p.lon,
-                        })
-                        .collect()
-                })
-                .collect();
-            (
-                qgc_plan(&home, &items, &zones, &PlanFileOptions::default()),
-                "application/json",
-                "plan",
-            )
-        }
-    };
-    let mut resp = text.into_response();
-    let h = resp.headers_mut();
-    h.insert(header::CONTENT_TYPE, HeaderValue::from_static(ctype));
-    h.insert(
-        header::CONTENT_DISPOSITION,
-        HeaderValue::from_str(&format!(
-            "attachment; filename=\"{id}-r{}.{ext}\"",
-            out.revision
-        ))
-        .map_err(|e| ApiError::Internal(e.to_string()))?,
-    );
-    Ok(resp)
-}
-
-/// Plan routes.
 /// The result of replaying a stored plan.
 #[derive(Debug, Serialize, ToSchema)]
 pub struct ReplayOut {
@@ -1043,6 +649,5 @@ async fn replay_plan(
 pub fn router() -> OpenApiRouter<AppState> {
     OpenApiRouter::new()
         .routes(routes!(create_plan))
-        .routes(routes!(get_plan))
         .routes(routes!(replay_plan))
 }

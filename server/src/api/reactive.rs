@@ -16,10 +16,36 @@ use planner::reactive::{
 };
 
 use crate::app::AppState;
-use crate::error::{ApiError, Problem};
+use crate::error::{ApiError, FieldError, Problem};
 use crate::extract::ApiJson;
 
-/// Largest `samples_per_segment` accepted by `/pilot`.
+/// Largest magnitude of the lengths (and ratios, weights) the reactive endpoints take:
+/// 1000 km is far beyond any LiDAR, and keeps every answer finite (JSON has no infinity).
+const MAX_MAGNITUDE: f64 = 1e6;
+
+/// 422 for every named value whose magnitude exceeds [`MAX_MAGNITUDE`].
+fn check_magnitudes<'a>(
+    values: impl IntoIterator<Item = (&'a str, Option<f64>)>,
+) -> Result<(), ApiError> {
+    let errs: Vec<FieldError> = values
+        .into_iter()
+        .filter_map(|(pointer, v)| {
+            v.filter(|v| v.abs() > MAX_MAGNITUDE).map(|v| {
+                FieldError::new(
+                    pointer,
+                    format!("{v} exceeds the largest accepted magnitude, {MAX_MAGNITUDE}"),
+                )
+            })
+        })
+        .collect();
+    if errs.is_empty() {
+        Ok(())
+    } else {
+        Err(ApiError::Validation(errs))
+    }
+}
+
+/// Largest `samples_per_segment` accepted by `/pilot` (also in the OpenAPI schema).
 const MAX_SAMPLES_PER_SEGMENT: usize = 10_000;
 
 /// One LiDAR beam.
@@ -48,20 +74,29 @@ pub struct BeamIn {
 }))]
 pub struct OffsetRequest {
     /// The sweep: beams in any order; those outside the field of view are ignored.
+    #[schema(min_items = 1)]
     pub scan: Vec<BeamIn>,
     /// Scan radii, metres, one frame each, any order (the nearest frame weighs most).
+    #[schema(min_items = 1, max_items = 60)]
     pub scan_radii_m: Vec<f64>,
     /// Threshold `T` on the aggregate score (0..100), default 5.0.
+    #[schema(minimum = 0)]
     pub threshold: Option<f64>,
     /// Window size `N`, beams, default 4.
+    #[schema(minimum = 1)]
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub window: Option<usize>,
     /// Field of view, degrees, centred on the heading, default 120.
+    #[schema(exclusive_minimum = 0, maximum = 360)]
     pub fov_deg: Option<f64>,
     /// Readings below this are blocked, metres, default 0.
+    #[schema(minimum = 0)]
     pub range_min_m: Option<f64>,
     /// Readings above this are free, metres, default unlimited.
+    #[schema(exclusive_minimum = 0)]
     pub range_max_m: Option<f64>,
     /// Range at which the deviation is measured, metres, default the largest scan radius.
+    #[schema(exclusive_minimum = 0, maximum = 1000000)]
     pub lookahead_m: Option<f64>,
 }
 
@@ -151,6 +186,18 @@ async fn offset(
     State(state): State<AppState>,
     ApiJson(req): ApiJson<OffsetRequest>,
 ) -> Result<axum::Json<OffsetResponse>, ApiError> {
+    let radii: Vec<(String, Option<f64>)> = req
+        .scan_radii_m
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| (format!("/scan_radii_m/{i}"), Some(r)))
+        .collect();
+    check_magnitudes(
+        radii
+            .iter()
+            .map(|(p, r)| (p.as_str(), *r))
+            .chain([("/lookahead_m", req.lookahead_m)]),
+    )?;
     let defaults = OffsetParams::default();
     let params = OffsetParams {
         scan_radii_m: req.scan_radii_m,
@@ -198,24 +245,35 @@ async fn offset(
 #[schema(example = json!({"deviation_m": 3.0, "scan_range_m": 10.0, "goal_distance_m": 50.0}))]
 pub struct PilotRequest {
     /// Lateral deviation to fly, metres, left positive (the offset decision's `deviation_m`).
+    #[schema(minimum = -1000000, maximum = 1000000)]
     pub deviation_m: f64,
     /// Scan range `l` (forward distance of the offset point), metres, > 0.
+    #[schema(exclusive_minimum = 0, maximum = 1000000)]
     pub scan_range_m: f64,
     /// Distance to the goal along the goal line, metres, > 0.
+    #[schema(exclusive_minimum = 0, maximum = 1000000)]
     pub goal_distance_m: f64,
     /// `g = goal_fraction * goal_distance`, in (0, 1), default 0.6.
+    #[schema(exclusive_minimum = 0, exclusive_maximum = 1)]
     pub goal_fraction: Option<f64>,
     /// `delta` in `P2 = (0, g + delta)`, metres, default `goal_distance - g` (rejoin at the goal).
+    #[schema(exclusive_minimum = 0, maximum = 1000000)]
     pub return_overhead_m: Option<f64>,
     /// Largest deviation, metres, default 30.
+    #[schema(minimum = 0, maximum = 1000000)]
     pub max_deviation_m: Option<f64>,
     /// Deviations up to this snap back to the goal line, metres, default 0.25.
+    #[schema(minimum = 0, maximum = 1000000)]
     pub snap_back_m: Option<f64>,
     /// Goal funnel: `|d| <= funnel_ratio * goal_distance`, default 0.5.
+    #[schema(minimum = 0, maximum = 1000000)]
     pub funnel_ratio: Option<f64>,
     /// Weight `k` of the deviation cost `k d^2`, default 1.
+    #[schema(minimum = 0, maximum = 1000000)]
     pub deviation_cost_weight: Option<f64>,
     /// Sampled points per Bezier segment, default 16 (the answer has `2n + 1` points).
+    #[schema(minimum = 1, maximum = 10000)]
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub samples_per_segment: Option<usize>,
 }
 
@@ -291,6 +349,16 @@ fn point(p: planner::reactive::PathPoint) -> PointOut {
         (status = 422, description = "Invalid input or heuristic, the field named", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn pilot(ApiJson(req): ApiJson<PilotRequest>) -> Result<axum::Json<PilotResponse>, ApiError> {
+    check_magnitudes([
+        ("/deviation_m", Some(req.deviation_m)),
+        ("/scan_range_m", Some(req.scan_range_m)),
+        ("/goal_distance_m", Some(req.goal_distance_m)),
+        ("/return_overhead_m", req.return_overhead_m),
+        ("/max_deviation_m", req.max_deviation_m),
+        ("/snap_back_m", req.snap_back_m),
+        ("/funnel_ratio", req.funnel_ratio),
+        ("/deviation_cost_weight", req.deviation_cost_weight),
+    ])?;
     let d = PilotParams::default();
     let params = PilotParams {
         goal_fraction: req.goal_fraction.unwrap_or(d.goal_fraction),
@@ -340,12 +408,15 @@ async fn pilot(ApiJson(req): ApiJson<PilotRequest>) -> Result<axum::Json<PilotRe
 pub struct SectorsRequest {
     /// LaserScan-like ranges, metres: index `i` at bearing `angle_min_deg + i * 360 / len`,
     /// counter-clockwise. `null` = no return.
+    #[schema(min_items = 1)]
     pub ranges_m: Vec<Option<f64>>,
     /// Bearing of `ranges_m[0]`, degrees, default 0 (straight ahead).
     pub angle_min_deg: Option<f64>,
     /// Readings at or below this are dropped, metres, default 0.
+    #[schema(minimum = 0)]
     pub range_min_m: Option<f64>,
     /// Only readings at or below this count as obstacles, metres, default 1.0.
+    #[schema(exclusive_minimum = 0)]
     pub obj_threshold_m: Option<f64>,
     /// Turn rate magnitude when avoiding, default 0.7.
     pub avoid_angular_velocity: Option<f64>,

@@ -1,5 +1,7 @@
-//! `jink plan --mission M.json --obstacles O.json [--seed N]`: plan offline and print the
-//! plan as JSON (the same document `POST /api/v1/missions/{id}/plan` answers).
+//! `jink plan --mission M.json --obstacles O.json [--seed N] [--position LAT,LON[,ALT]]
+//! [--heading DEG] [--format json|wpl|qgc-plan] [--out FILE]`: plan offline and print (or
+//! write) the plan as JSON (the same document `POST /api/v1/missions/{id}/plan` answers), a
+//! QGC WPL 110 file or a QGroundControl `.plan` (cylinders as exclusion circles).
 //!
 //! The mission file may be in any format the server accepts (native, interop 2017/2018,
 //! interop 2019+; detected). The optional obstacles file is the native observation batch
@@ -11,10 +13,11 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::Args;
-use serde::Deserialize;
 
+use crate::api::plan_files::plan_file_text;
 use crate::api::plans::{
-    ObservationUsed, PlanInputs, StrategyIn, compute, new_seed, plan_out, stack_start,
+    ObservationUsed, PlanFormat, PlanInputs, StartOut, StartSource, StrategyIn, compute, new_seed,
+    plan_out, stack_start,
 };
 use crate::mission::Mission;
 
@@ -45,21 +48,42 @@ pub struct PlanArgs {
     /// Deadline, ms (default none).
     #[arg(long)]
     pub deadline_ms: Option<u64>,
+    /// The aircraft's position `LAT,LON[,ALT_MSL_M]` (degrees, metres), at the newest
+    /// observation's time (default: the waypoint before --current-index).
+    #[arg(long, value_parser = parse_position)]
+    pub position: Option<(f64, f64, Option<f64>)>,
+    /// The aircraft's heading, degrees true in [0, 360] (with --position; default toward
+    /// the current waypoint).
+    #[arg(long)]
+    pub heading: Option<f64>,
+    /// Output: `json` (the plan), `wpl` (QGC WPL 110) or `qgc-plan` (QGroundControl `.plan`).
+    #[arg(long, default_value = "json")]
+    pub format: String,
+    /// Write the output to this file instead of standard output.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
 }
 
-#[derive(Debug, Deserialize)]
-struct ObsFile {
-    observations: Vec<ObsIn>,
-}
-
-#[derive(Debug, Deserialize)]
-struct ObsIn {
-    obstacle_id: String,
-    t: crate::time::WireTime,
-    lat: f64,
-    lon: f64,
-    alt_msl_m: f64,
-    radius_m: f64,
+/// `LAT,LON[,ALT]` in range.
+fn parse_position(s: &str) -> Result<(f64, f64, Option<f64>), String> {
+    let parts: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>().map_err(|e| format!("{p:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    let (lat, lon, alt) = match parts[..] {
+        [lat, lon] => (lat, lon, None),
+        [lat, lon, alt] if alt.is_finite() => (lat, lon, Some(alt)),
+        _ => return Err("expected LAT,LON or LAT,LON,ALT_MSL_M".into()),
+    };
+    let mut errs = Vec::new();
+    if !wire::coords::check_lat_lon(&mut errs, "latitude", "longitude", lat, lon) {
+        return Err(errs
+            .iter()
+            .map(|e| e.detail.clone())
+            .collect::<Vec<_>>()
+            .join("; "));
+    }
+    Ok((lat, lon, alt))
 }
 
 fn fail(msg: impl std::fmt::Display) -> ExitCode {
@@ -83,22 +107,21 @@ pub fn run(args: PlanArgs) -> ExitCode {
     let observations: Vec<ObservationUsed> = match &args.obstacles {
         None => Vec::new(),
         Some(p) => {
-            let parsed: Result<ObsFile, String> = std::fs::read_to_string(p)
+            let parsed = std::fs::read_to_string(p)
                 .map_err(|e| e.to_string())
-                .and_then(|t| serde_json::from_str(&t).map_err(|e| e.to_string()));
-            match parsed {
-                Ok(f) => f
-                    .observations
-                    .into_iter()
-                    .map(|o| ObservationUsed {
-                        obstacle_id: o.obstacle_id,
-                        t: o.t.0,
-                        lat: o.lat,
-                        lon: o.lon,
-                        alt_msl_m: o.alt_msl_m,
-                        radius_m: o.radius_m,
+                .and_then(|t| serde_json::from_str(&t).map_err(|e| e.to_string()))
+                .and_then(|v| {
+                    wire::telemetry::parse_observations(v, None, 0.0).map_err(|e| match e {
+                        wire::WireError::Validation(errs) => errs
+                            .iter()
+                            .map(|e| format!("{}: {}", e.pointer, e.detail))
+                            .collect::<Vec<_>>()
+                            .join("; "),
+                        other => other.to_string(),
                     })
-                    .collect(),
+                });
+            match parsed {
+                Ok(rows) => rows.iter().map(ObservationUsed::from).collect(),
                 Err(e) => return fail(format!("{}: {e}", p.display())),
             }
         }
@@ -113,6 +136,17 @@ pub fn run(args: PlanArgs) -> ExitCode {
             ));
         }
     };
+    let format = match args.format.as_str() {
+        "json" => PlanFormat::Json,
+        "wpl" | "qgc-wpl" => PlanFormat::QgcWpl,
+        "qgc-plan" => PlanFormat::QgcPlan,
+        other => return fail(format!("unknown format '{other}' (json, wpl, qgc-plan)")),
+    };
+    if let Some(h) = args.heading
+        && !(h.is_finite() && (0.0..=360.0).contains(&h))
+    {
+        return fail(format!("--heading {h} is not in [0, 360]"));
+    }
     let t0 = observations.iter().map(|o| o.t).fold(0.0, f64::max);
     let current_index = args.current_index.min(m.content.waypoints.len());
     let mut observations = observations;
@@ -129,7 +163,41 @@ pub fn run(args: PlanArgs) -> ExitCode {
         turn_radius_m: args.turn_radius_m,
         current_index,
         stack: Vec::new(),
-        start: stack_start(&m, &[], current_index, t0),
+        start: {
+            let from_stack = stack_start(&m, &[], current_index, t0);
+            match args.position {
+                None => StartOut {
+                    heading_deg: args.heading.unwrap_or(from_stack.heading_deg),
+                    ..from_stack
+                },
+                Some((lat, lon, alt)) => {
+                    let heading_deg = args.heading.unwrap_or_else(|| {
+                        let to = m
+                            .content
+                            .waypoints
+                            .get(current_index)
+                            .map(|w| (w.lat, w.lon));
+                        to.map_or(from_stack.heading_deg, |(tl, tn)| {
+                            let f = m.frame();
+                            let (a, b) = (f.to_enu(lat, lon), f.to_enu(tl, tn));
+                            (b[0] - a[0])
+                                .atan2(b[1] - a[1])
+                                .to_degrees()
+                                .rem_euclid(360.0)
+                        })
+                    });
+                    StartOut {
+                        source: StartSource::Telemetry,
+                        lat,
+                        lon,
+                        alt_msl_m: alt.unwrap_or(from_stack.alt_msl_m),
+                        heading_deg,
+                        speed_mps: args.speed_mps,
+                        ..from_stack
+                    }
+                }
+            }
+        },
         observations,
         observation_window: None,
         observation_seq: None,
@@ -140,11 +208,15 @@ pub fn run(args: PlanArgs) -> ExitCode {
         Err(e) => return fail(e),
     };
     let out = plan_out(&m.id, "offline".into(), 1, 0, &inputs, &computed, t0);
-    match serde_json::to_string_pretty(&out) {
-        Ok(s) => {
-            println!("{s}");
+    let (text, _, _) = plan_file_text(&m, &out, format);
+    match &args.out {
+        None => {
+            print!("{text}");
             ExitCode::SUCCESS
         }
-        Err(e) => fail(e),
+        Some(path) => match std::fs::write(path, text) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => fail(format!("{}: {e}", path.display())),
+        },
     }
 }

@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 
 use super::snapshot::{LIVE_HORIZON_S, Snapshot, build_map, map_config};
-use crate::api::risk::StageOut;
+use crate::api::obstacles::StageOut;
 use crate::mission::Mission;
 
 /// Telemetry may trail the newest obstacle observation by this much before a plan warns,

@@ -32,39 +32,11 @@ pub enum Backend {
     Postgres,
 }
 
-/// A moving-obstacle observation as stored.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ObservationRow {
-    /// The obstacle's id within the mission.
-    pub obstacle_id: String,
-    /// Observation time, Unix seconds (microsecond resolution).
-    pub t_s: f64,
-    /// Latitude, degrees.
-    pub lat_deg: f64,
-    /// Longitude, degrees.
-    pub lon_deg: f64,
-    /// Altitude, metres MSL.
-    pub alt_msl_m: f64,
-    /// Sphere radius, metres.
-    pub radius_m: f64,
-}
+/// A moving-obstacle observation as stored: the validated wire value.
+pub use wire::telemetry::Observation as ObservationRow;
 
-/// An aircraft telemetry sample as stored.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TelemetryRow {
-    /// Sample time, Unix seconds (microsecond resolution).
-    pub t_s: f64,
-    /// Latitude, degrees.
-    pub lat_deg: f64,
-    /// Longitude, degrees.
-    pub lon_deg: f64,
-    /// Altitude, metres MSL.
-    pub alt_msl_m: f64,
-    /// Heading, degrees true (0 = north, clockwise).
-    pub heading_deg: f64,
-    /// Ground speed, m/s, when reported.
-    pub speed_mps: Option<f64>,
-}
+/// An aircraft telemetry sample as stored: the validated wire value.
+pub use wire::telemetry::AircraftSample as TelemetryRow;
 
 /// How many rows of a batch were new and how many were already stored.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

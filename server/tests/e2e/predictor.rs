@@ -25,12 +25,32 @@ fn straight(i0: u32, i1: u32) -> Value {
     json!({ "observations": obs })
 }
 
-fn png_size(bytes: &[u8]) -> (u32, u32) {
-    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "PNG signature");
-    assert_eq!(&bytes[12..16], b"IHDR");
-    let w = u32::from_be_bytes(bytes[16..20].try_into().unwrap());
-    let h = u32::from_be_bytes(bytes[20..24].try_into().unwrap());
-    (w, h)
+/// Width, height and RGBA pixels of a PNG.
+fn decode_png(bytes: &[u8]) -> (u32, u32, Vec<u8>) {
+    let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
+        .read_info()
+        .unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Rgba);
+    buf.truncate(info.buffer_size());
+    (info.width, info.height, buf)
+}
+
+fn pixel(img: &(u32, u32, Vec<u8>), x: u32, y: u32) -> [u8; 3] {
+    let i = ((y * img.0 + x) * 4) as usize;
+    [img.2[i], img.2[i + 1], img.2[i + 2]]
+}
+
+async fn moving_after(app: &App, path: &str) -> Value {
+    app.get_json(path)
+        .await
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["id"] == "7")
+        .unwrap()
+        .clone()
 }
 
 async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app: App) {
@@ -106,22 +126,82 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
     assert_eq!(later["t_ahead_s"], 20.0);
     assert!(later["max"].as_f64().unwrap() > 0.0);
 
-    // Risk as PNG.
+    // Risk as PNG: the same slice drawn, the obstacle at its fitted position, the legend.
+    let slice = app
+        .get_json(&format!("/api/v1/missions/{id}/risk?t=10"))
+        .await;
     let r = app
-        .get(&format!("/api/v1/missions/{id}/risk?t=10&format=png"))
+        .get(&format!("/api/v1/missions/{id}/risk/png?t=10"))
         .await;
     assert_eq!(r.status(), 200);
     assert_eq!(r.headers()["content-type"], "image/png");
     let bytes = r.bytes().await.unwrap();
-    let (pw, ph) = png_size(&bytes);
-    assert!(pw >= w as u32 && ph >= h as u32 && pw <= 2000, "{pw}x{ph}");
     if let Ok(dir) = std::env::var("JINK_E2E_PNG_DIR") {
         std::fs::write(format!("{dir}/risk_t10.png"), &bytes).unwrap();
     }
+    let img = decode_png(&bytes);
+    // The map is width x height cells at an integer scale; a 72 px legend panel on the right.
+    let (cells_w, cells_h) = (
+        slice["width"].as_u64().unwrap() as u32,
+        slice["height"].as_u64().unwrap() as u32,
+    );
+    let map_w = img.0 - 72;
+    let scale = map_w / cells_w;
+    assert_eq!(map_w, scale * cells_w, "{}x{}", img.0, img.1);
+    assert!(img.1 >= cells_h * scale && scale >= 1);
+    let frame = wire::geodesy::LocalFrame::new(
+        slice["frame_origin"]["lat"].as_f64().unwrap(),
+        slice["frame_origin"]["lon"].as_f64().unwrap(),
+    );
+    let pos = &moving_after(&app, &path).await["estimates"]["position"];
+    let p = frame.to_enu(pos["lat"].as_f64().unwrap(), pos["lon"].as_f64().unwrap());
+    let px_per_m = f64::from(scale) / slice["cell_m"].as_f64().unwrap();
+    let gx = (p[0] - slice["grid_origin_enu_m"][0].as_f64().unwrap()) * px_per_m;
+    let gy = f64::from(cells_h * scale)
+        - (p[1] - slice["grid_origin_enu_m"][1].as_f64().unwrap()) * px_per_m;
+    // The obstacle's centre disc is magenta.
+    assert_eq!(pixel(&img, gx as u32, gy as u32), [200, 0, 200]);
+    // The slice's most likely cell (10 s ahead of the obstacle) is drawn in heat colours:
+    // red at least 170, blue at most 170, never the white of no risk or an overlay.
+    let values = slice["values"].as_array().unwrap();
+    let peak = (0..values.len())
+        .max_by(|&a, &b| {
+            values[a]
+                .as_f64()
+                .unwrap()
+                .total_cmp(&values[b].as_f64().unwrap())
+        })
+        .unwrap() as u32;
+    let (row, col) = (peak / cells_w, peak % cells_w);
+    let y0 = (cells_h - 1 - row) * scale;
+    let heat_pixels = (0..scale * scale)
+        .map(|k| pixel(&img, col * scale + k % scale, y0 + k / scale))
+        .filter(|c| c[0] >= 170 && c[2] <= 170 && *c != [250, 250, 250] && *c != [200, 0, 200])
+        .count();
+    assert!(heat_pixels > 0, "cell {row},{col} is not drawn as risk");
+    // The legend's colour bar: dark red (probability 1) at the top, pale yellow near 0.
+    let top = pixel(&img, map_w + 16, 42);
+    assert!(
+        (160..=180).contains(&top[0]) && top[1] < 20 && top[2] < 20,
+        "{top:?}"
+    );
+    let bottom = pixel(&img, map_w + 16, 236);
+    assert!(bottom[0] == 255 && bottom[1] > 200, "{bottom:?}");
+    // The older `?format=png` answers 303 to the PNG (reqwest follows it).
+    let old = app
+        .get(&format!("/api/v1/missions/{id}/risk?t=10&format=png"))
+        .await;
+    assert_eq!(old.url().path(), format!("/api/v1/missions/{id}/risk/png"));
+    assert_eq!(old.bytes().await.unwrap(), bytes);
 
     // Out-of-range t names the parameter.
-    let r = app.get(&format!("/api/v1/missions/{id}/risk?t=61")).await;
-    assert_eq!(r.status(), 422);
+    for path in ["risk", "risk/png"] {
+        let r = app.get(&format!("/api/v1/missions/{id}/{path}?t=61")).await;
+        assert_eq!(
+            crate::support::pointers(&crate::support::problem(r, 422).await),
+            ["/t"]
+        );
+    }
 
     // Restart: the characterization is rebuilt from the stored observations.
     app.kill9_and_restart();

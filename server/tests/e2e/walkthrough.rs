@@ -105,7 +105,7 @@ async fn the_readme_walk_through_does_what_it_says(app: App) {
         .collect();
     assert_eq!(moving, ["0", "1", "7"]);
     let r = app
-        .get(&format!("/api/v1/missions/{id}/risk?t=5&format=png"))
+        .get(&format!("/api/v1/missions/{id}/risk/png?t=5"))
         .await;
     assert_eq!(r.status(), 200);
     assert_eq!(&r.bytes().await.unwrap()[1..4], b"PNG");

@@ -1,0 +1,276 @@
+//! The plan's wire types: the response document ([`PlanOut`] and its parts), the inputs
+//! stored with each plan for replay ([`PlanInputs`]), and the download formats. The
+//! handlers and the planning glue are in [`super::plans`]; downloads in
+//! [`super::plan_files`].
+
+use planner::{ItemKind, PlanOutcome};
+use serde::{Deserialize, Serialize};
+use utoipa::{IntoParams, ToSchema};
+
+use super::plans::StrategyIn;
+use crate::error::ApiError;
+use crate::live::plan_view::{PlanObstacle, PlanWarning};
+use wire::ids::MissionId;
+
+/// What a stack item is for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum KindOut {
+    /// A mission waypoint (never moved).
+    Mission,
+    /// Inserted by the planner to avoid an obstacle.
+    Avoid,
+    /// A search-pattern waypoint.
+    Search,
+}
+
+/// One stack item.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct PlanWaypoint {
+    /// Latitude, degrees.
+    pub lat: f64,
+    /// Longitude, degrees.
+    pub lon: f64,
+    /// Altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// What it is for.
+    pub kind: KindOut,
+    /// Index into the mission's waypoints, for mission items.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mission_index: Option<usize>,
+}
+
+/// Tail rewrite from the base stack (MAVLink: delete `remove` items from `first_changed`,
+/// then write `insert` from there).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct DiffOut {
+    /// First index that differs; null when nothing changes.
+    pub first_changed: Option<usize>,
+    /// Items to delete from `first_changed` to the old end.
+    pub remove: usize,
+    /// Items to write from `first_changed` on.
+    pub insert: Vec<PlanWaypoint>,
+}
+
+/// Where the plan starts.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct StartOut {
+    /// `telemetry` (the latest aircraft telemetry) or `stack` (no telemetry: the item before
+    /// the current index, now).
+    pub source: StartSource,
+    /// Time, Unix seconds.
+    pub t: f64,
+    /// Latitude, degrees.
+    pub lat: f64,
+    /// Longitude, degrees.
+    pub lon: f64,
+    /// Altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// Heading, degrees true.
+    pub heading_deg: f64,
+    /// Ground speed, m/s (0 = unknown).
+    pub speed_mps: f64,
+}
+
+/// Where the start came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StartSource {
+    /// Latest aircraft telemetry.
+    Telemetry,
+    /// No telemetry: a stack item.
+    Stack,
+}
+
+/// An obstacle observation used by a plan (the stored observation's wire form).
+pub type ObservationUsed = wire::telemetry::ObservationOut;
+
+/// Everything a plan depends on besides the mission: stored with it for replay.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanInputs {
+    /// Seed.
+    pub seed: u64,
+    /// Strategy.
+    pub strategy: StrategyIn,
+    /// Deadline, ms.
+    pub deadline_ms: Option<u64>,
+    /// Horizon, seconds.
+    pub horizon_s: f64,
+    /// Cruise speed, m/s.
+    pub speed_mps: f64,
+    /// Turn radius, m.
+    pub turn_radius_m: f64,
+    /// Current index in `stack`.
+    pub current_index: usize,
+    /// The base stack (empty = the mission's waypoints).
+    pub stack: Vec<PlanWaypoint>,
+    /// The start.
+    pub start: StartOut,
+    /// Observations fed to the predictor (offline `jink plan`; server plans name their
+    /// batches with `observation_seq` instead).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub observations: Vec<ObservationUsed>,
+    /// Plans stored before live state: the stored observations they used, for replay.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observation_window: Option<ObservationWindow>,
+    /// Server plans: the live snapshot's cut-off, every observation batch `<=` this
+    /// sequence number (replay rebuilds the snapshot from the store).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub observation_seq: Option<i64>,
+}
+
+/// The stored observations a plan used: `after_us < t <= until_us`, received by
+/// `received_until_us` (Unix microseconds).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ObservationWindow {
+    /// Exclusive lower bound of observation time.
+    pub after_us: i64,
+    /// Inclusive upper bound of observation time.
+    pub until_us: i64,
+    /// Only observations received by then (the plan request's time).
+    pub received_until_us: i64,
+}
+
+impl ObservationWindow {
+    /// Fetches exactly these observations.
+    ///
+    /// # Errors
+    /// A database failure.
+    pub async fn fetch(
+        &self,
+        store: &crate::store::Store,
+        mission_id: &MissionId,
+    ) -> Result<Vec<ObservationUsed>, ApiError> {
+        Ok(store
+            .list_observations_window(
+                mission_id,
+                self.after_us,
+                self.until_us,
+                self.received_until_us,
+            )
+            .await?
+            .iter()
+            .map(ObservationUsed::from)
+            .collect())
+    }
+}
+
+/// How dynamic risk was obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct DynamicRisk {
+    /// `risk_map` (predictor risk map from observations) or `none`.
+    pub source: DynamicSource,
+    /// Moving obstacles considered (in the risk map).
+    pub obstacles: usize,
+}
+
+/// Dynamic risk source.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum DynamicSource {
+    /// The predictor's risk map.
+    RiskMap,
+    /// No moving obstacle observed: no dynamic risk.
+    None,
+}
+
+/// A plan as returned and stored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
+pub struct PlanOut {
+    /// Plan id.
+    pub plan_id: String,
+    /// Mission id.
+    pub mission_id: String,
+    /// Revision (1, 2, ... per mission).
+    pub revision: i64,
+    /// The revision this plan revises (0 = the mission's waypoints).
+    pub base_revision: i64,
+    /// `exact`, `approximate`, `timeout`, `no_safe_path`, `start_inside_obstacle`,
+    /// `start_outside_fly_zone`, `waypoint_inside_cylinder`. A plan is returned in every
+    /// case (the least-risk one found).
+    pub outcome: String,
+    /// Seed used.
+    pub seed: u64,
+    /// Index to fly toward now.
+    pub current_index: usize,
+    /// The whole revised stack (items before `current_index` unchanged).
+    pub waypoints: Vec<PlanWaypoint>,
+    /// Tail rewrite from the base stack.
+    pub diff: DiffOut,
+    /// Peak risk along the remaining route within the horizon (1 = enters a cylinder or
+    /// leaves the fly zone).
+    pub risk: f64,
+    /// Peak risk of the base stack on the same metric.
+    pub base_risk: f64,
+    /// Risk exposure, metres flown at risk 1.
+    pub exposure_m: f64,
+    /// Remaining route length from the start, metres.
+    pub length_m: f64,
+    /// Avoid items in the remaining route.
+    pub added: usize,
+    /// Stack indices of avoid items whose turns are too sharp for the turn radius.
+    pub turn_violations: Vec<usize>,
+    /// Planning time, milliseconds (risk map included).
+    pub compute_ms: f64,
+    /// Dynamic risk used.
+    pub dynamic_risk: DynamicRisk,
+    /// Every observed moving obstacle: its stage, its newest observation time, and
+    /// whether the plan considered it (else why not).
+    #[serde(default)]
+    pub obstacles: Vec<PlanObstacle>,
+    /// Anything suspicious about the inputs (clock mismatch, obstacles left out, no
+    /// telemetry); empty when all is well.
+    #[serde(default)]
+    pub warnings: Vec<PlanWarning>,
+    /// Observation batches the plan saw: all batches up to this sequence number.
+    #[serde(default)]
+    pub observation_seq: i64,
+    /// The start.
+    pub start: StartOut,
+    /// When it was computed (RFC 3339).
+    pub created_at: String,
+}
+
+/// `?format=` of a plan download.
+#[derive(Debug, Deserialize, IntoParams)]
+#[into_params(parameter_in = Query)]
+pub struct GetParams {
+    /// `json` (default), `qgc-wpl` (QGC WPL 110 text) or `qgc-plan` (QGroundControl
+    /// `.plan` JSON).
+    pub format: Option<PlanFormat>,
+}
+
+/// A plan download format.
+#[derive(Debug, Clone, Copy, Deserialize, ToSchema)]
+pub enum PlanFormat {
+    /// The plan as JSON.
+    #[serde(rename = "json")]
+    Json,
+    /// QGC WPL 110 text, index 0 = home.
+    #[serde(rename = "qgc-wpl")]
+    QgcWpl,
+    /// QGroundControl `.plan` JSON with the fly zone as geofence.
+    #[serde(rename = "qgc-plan")]
+    QgcPlan,
+}
+
+pub(crate) fn outcome_name(o: PlanOutcome) -> &'static str {
+    match o {
+        PlanOutcome::Exact => "exact",
+        PlanOutcome::Approximate => "approximate",
+        PlanOutcome::Timeout => "timeout",
+        PlanOutcome::NoSafePath => "no_safe_path",
+        PlanOutcome::StartInsideObstacle { .. } => "start_inside_obstacle",
+        PlanOutcome::StartOutsideFlyZone => "start_outside_fly_zone",
+        PlanOutcome::WaypointInsideCylinder { .. } => "waypoint_inside_cylinder",
+        _ => "unknown",
+    }
+}
+
+pub(crate) fn kind_out(k: ItemKind) -> KindOut {
+    match k {
+        ItemKind::Mission => KindOut::Mission,
+        ItemKind::Avoid => KindOut::Avoid,
+        ItemKind::Search => KindOut::Search,
+    }
+}
