@@ -461,10 +461,19 @@ pub fn plan_until(
     let verify =
         |tail: &[StackItem]| verify_route(&env_at, s, tail, speed, turn_r, p.safe_risk, &p.verify);
     let v_base = verify(&base_tail);
+    // A candidate must fly every fixed item of the stack, in order (never skip a waypoint).
+    let fixed_of = |tail: &[StackItem]| -> Vec<StackItem> {
+        tail.iter().filter(|i| i.is_fixed()).copied().collect()
+    };
+    let base_fixed = fixed_of(&base_tail);
+    let keeps_fixed = |tail: &[StackItem]| fixed_of(tail) == base_fixed;
     let mut best_tail = base_tail.clone();
     let mut best = v_base;
     for cand in [&prepass_tail, &full_tail] {
         if cand.is_empty() && !base_tail.is_empty() {
+            continue;
+        }
+        if !keeps_fixed(cand) {
             continue;
         }
         let v = verify(cand);
@@ -485,6 +494,9 @@ pub fn plan_until(
                 if term.should_stop() {
                     timed_out = true;
                     break;
+                }
+                if !keeps_fixed(&cand) {
+                    continue;
                 }
                 evaluations += 1;
                 let v = verify(&cand);

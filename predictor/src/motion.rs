@@ -20,6 +20,7 @@ use crate::estimate::Estimates;
 use crate::stage::{Stage, StageConfig, TurnHistogram, slice_of};
 use crate::stats::smoothed;
 use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
 
 /// Lattice levels per histogram bin.
 pub const LEVELS_PER_BIN: usize = 8;
@@ -52,6 +53,10 @@ pub struct MotionModel {
     slice_of_bin: Vec<usize>,
     /// Bin of the most recent turn sample.
     last_bin: Option<usize>,
+    /// Spread of the particles' start position, metres per axis.
+    pub start_position_sigma_m: f64,
+    /// Spread of the particles' start heading, radians.
+    pub start_heading_sigma_rad: f64,
     /// A recognized lap of a periodic tour: when set, positions after `t_s` are replayed
     /// from the obstacle's own earlier lap ([`crate::periodic`]) instead of propagated.
     pub lap: Option<crate::periodic::Lap>,
@@ -104,6 +109,8 @@ impl MotionModel {
             cdf,
             slice_of_bin: (0..cfg.turn_bins).map(|b| slice_of(b, cfg)).collect(),
             last_bin: hist.last_bin,
+            start_position_sigma_m: cfg.start_position_sigma_m,
+            start_heading_sigma_rad: cfg.start_heading_sigma_rad,
             lap: None,
         }
     }
@@ -193,17 +200,31 @@ impl<'a> Propagator<'a> {
     /// `n` particles at the model's start, each with a first turn drawn for the current
     /// decision interval.
     pub fn new<R: Rng + ?Sized>(model: &'a MotionModel, n: usize, rng: &mut R) -> Self {
-        let (s, c) = model.heading_rad.sin_cos();
         let dti = model.decision_interval_s;
         let level = (0..n)
             .map(|_| model.draw_level(model.last_bin, rng) as u16)
             .collect();
+        // Start-state uncertainty: observation noise and fit error in the position, the
+        // heading's fit error (so the 95% region covers the truth at +1 s too).
+        let (mut x, mut y) = (vec![model.position_m[0]; n], vec![model.position_m[1]; n]);
+        let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
+        let (sp, sh) = (model.start_position_sigma_m, model.start_heading_sigma_rad);
+        for i in 0..n {
+            let mut h = model.heading_rad;
+            if sp > 0.0 || sh > 0.0 {
+                let z: [f64; 3] = std::array::from_fn(|_| StandardNormal.sample(&mut *rng));
+                x[i] += sp * z[0];
+                y[i] += sp * z[1];
+                h += sh * z[2];
+            }
+            (uy[i], ux[i]) = h.sin_cos();
+        }
         Self {
             model,
-            x: vec![model.position_m[0]; n],
-            y: vec![model.position_m[1]; n],
-            ux: vec![c; n],
-            uy: vec![s; n],
+            x,
+            y,
+            ux,
+            uy,
             level,
             t_s: model.t_s,
             next_decision_s: ((model.t_s / dti).floor() + 1.0) * dti,
@@ -299,7 +320,11 @@ mod tests {
 
     #[test]
     fn particles_fly_at_constant_speed_within_the_reachable_disc() {
-        let cfg = StageConfig::default();
+        let cfg = StageConfig {
+            start_position_sigma_m: 0.0,
+            start_heading_sigma_rad: 0.0,
+            ..StageConfig::default()
+        };
         let hist = TurnHistogram::build(&[], 0.3, &cfg);
         let m = MotionModel::new(Stage::Random, &est(10.0), &hist, 1.0, 25.0, &cfg);
         let mut rng = ChaCha8Rng::seed_from_u64(7);
@@ -315,7 +340,11 @@ mod tests {
 
     #[test]
     fn a_straight_histogram_predicts_a_straight_line() {
-        let cfg = StageConfig::default();
+        let cfg = StageConfig {
+            start_position_sigma_m: 0.0,
+            start_heading_sigma_rad: 0.0,
+            ..StageConfig::default()
+        };
         let mut hist = TurnHistogram::build(&[], 0.1, &cfg);
         hist.counts = vec![0, 0, 0, 0, 1000, 0, 0, 0, 0];
         let m = MotionModel::new(Stage::Advanced, &est(10.0), &hist, 1.0, 25.0, &cfg);

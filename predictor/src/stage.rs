@@ -122,6 +122,11 @@ pub struct StageConfig {
     pub memory_dwell_samples: usize,
     /// New samples after a regression before memory is attempted again. Default 60.
     pub memory_retry_samples: usize,
+    /// Spread of the start position of the propagated particles (observation noise and
+    /// fit error), metres, per axis. Default 2.
+    pub start_position_sigma_m: f64,
+    /// Spread of the start heading of the propagated particles, radians. Default 0.05.
+    pub start_heading_sigma_rad: f64,
 }
 
 impl Default for StageConfig {
@@ -140,6 +145,8 @@ impl Default for StageConfig {
             js_regress_threshold_nats: 0.02,
             memory_dwell_samples: 20,
             memory_retry_samples: 60,
+            start_position_sigma_m: 2.0,
+            start_heading_sigma_rad: 0.05,
         }
     }
 }

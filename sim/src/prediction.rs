@@ -4,7 +4,7 @@
 //! For every behaviour family, scenarios are drawn and their telemetry (the same noisy,
 //! lossy streams the strategies see) is fed to a [`predictor::Predictor`] in time order. At
 //! evaluation times every `eval_every_s` (after a `warmup_s`), for each horizon (+1, +3, +5,
-//! +10 s) and each method, the predicted distribution of the obstacle's horizontal position
+//! +10, +20 s) and each method, the predicted distribution of the obstacle's horizontal position
 //! is compared with the true position:
 //! - stages 1-4 (forced) and the automatic stage: `n` positions sampled with
 //!   `Predictor::sample_future_with_stage` (resp. `sample_future`); the density is a Gaussian
@@ -28,7 +28,7 @@ use crate::scenario::{Family, ScenarioParams, generate};
 use crate::strategy::constant_velocity::fit_cv;
 use crate::telemetry::{TelemetryParams, sample_streams};
 
-/// Parameters. Defaults: 20 seeds per behaviour, horizons 1, 3, 5, 10 s, 256 samples,
+/// Parameters. Defaults: 20 seeds per behaviour, horizons 1, 3, 5, 10, 20 s, 256 samples,
 /// evaluation every 10 s after 30 s of telemetry, default telemetry.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PredictionParams {
@@ -50,7 +50,7 @@ impl Default for PredictionParams {
     fn default() -> Self {
         Self {
             seeds: 20,
-            horizons_s: vec![1.0, 3.0, 5.0, 10.0],
+            horizons_s: vec![1.0, 3.0, 5.0, 10.0, 20.0],
             samples: 256,
             eval_every_s: 10.0,
             warmup_s: 30.0,
