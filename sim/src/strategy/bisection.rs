@@ -11,7 +11,6 @@
 use predictor::{Observation, Predictor, PredictorConfig, Stage};
 
 use super::{Command, ForcedStage, Strategy, View};
-use crate::mission::Stack;
 
 /// Map a forced stage to the predictor's.
 pub fn stage_of(s: ForcedStage) -> Stage {
@@ -77,23 +76,12 @@ impl Strategy for Bisection {
             self.fed[i] = track.len();
         }
         self.calls += 1;
-        let r = planner::Replan {
-            mission: view.mission,
-            aircraft: view.aircraft.planner_aircraft(),
-            state: view.own.planner_state(),
-            stack: &view.stack.items,
-            current_index: view.stack.current,
-            strategy: planner::Strategy::Bisection,
-            seed: planner::plan::leg_seed(self.seed, self.calls as usize, 0),
-        };
-        let dynamic = planner::Dynamic::Predictor(&self.predictor);
-        match planner::replan(&r, dynamic, &self.config, &planner::Termination::none()) {
-            Ok(p) => Command::Replace(Stack {
-                items: p.plan.items,
-                current: p.plan.current_index,
-            }),
-            // Bad input (a non-finite state): keep flying the stack.
-            Err(_) => Command::Keep,
-        }
+        let seed = planner::plan::leg_seed(self.seed, self.calls as usize, 0);
+        super::replan_command(
+            view,
+            planner::Dynamic::Predictor(&self.predictor),
+            &self.config,
+            seed,
+        )
     }
 }

@@ -166,6 +166,33 @@ impl StrategyKind {
     }
 }
 
+/// Replans `view`'s stack through the server's seam ([`planner::replan`]) with `dynamic`
+/// risk, `cfg` and plan seed `seed`, without a deadline (reproducible): the new stack, or
+/// the old one kept on bad input (a non-finite state).
+pub fn replan_command(
+    view: &View<'_>,
+    dynamic: planner::Dynamic<'_>,
+    cfg: &planner::ReplanConfig,
+    seed: u64,
+) -> Command {
+    let r = planner::Replan {
+        mission: view.mission,
+        aircraft: view.aircraft.planner_aircraft(),
+        state: view.own.planner_state(),
+        stack: &view.stack.items,
+        current_index: view.stack.current,
+        strategy: planner::Strategy::Bisection,
+        seed,
+    };
+    match planner::replan(&r, dynamic, cfg, &planner::Termination::none()) {
+        Ok(p) => Command::Replace(Stack {
+            items: p.plan.items,
+            current: p.plan.current_index,
+        }),
+        Err(_) => Command::Keep,
+    }
+}
+
 /// The "none" strategy.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Unchanged;

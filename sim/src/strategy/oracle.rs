@@ -9,7 +9,6 @@ use predictor::RiskField;
 
 use super::{Command, Strategy, View};
 use crate::geometry::dist;
-use crate::mission::Stack;
 use crate::scenario::MovingSphere;
 
 /// Ground truth as a risk field for the altitude band `[alt_lo_m, alt_hi_m]`.
@@ -77,22 +76,7 @@ impl Strategy for Oracle {
             alt_lo_m: lo,
             alt_hi_m: hi,
         };
-        let r = planner::Replan {
-            mission: view.mission,
-            aircraft: view.aircraft.planner_aircraft(),
-            state: view.own.planner_state(),
-            stack: &view.stack.items,
-            current_index: view.stack.current,
-            strategy: planner::Strategy::Bisection,
-            seed: planner::plan::leg_seed(self.seed, self.calls as usize, 0),
-        };
-        let dynamic = planner::Dynamic::Field(&truth);
-        match planner::replan(&r, dynamic, &self.config, &planner::Termination::none()) {
-            Ok(p) => Command::Replace(Stack {
-                items: p.plan.items,
-                current: p.plan.current_index,
-            }),
-            Err(_) => Command::Keep,
-        }
+        let seed = planner::plan::leg_seed(self.seed, self.calls as usize, 0);
+        super::replan_command(view, planner::Dynamic::Field(&truth), &self.config, seed)
     }
 }
