@@ -221,6 +221,9 @@ pub fn verify_route<'e>(
     let step = params.step_m.max(0.5);
     let horizon_end = env0.horizon_end_s;
 
+    // Where the aircraft is now counts too (nothing can change it, but it is real risk).
+    acc.cylinders(state.alt_m, state.p_m, state.t_s);
+    acc.risk(&env0, state.p_m, state.t_s);
     // The polyline, on its own clock.
     let (mut prev, mut prev_alt, mut t) = (state.p_m, state.alt_m, state.t_s);
     for (i, it) in tail.iter().enumerate() {

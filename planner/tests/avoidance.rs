@@ -2,6 +2,8 @@
 //! sampling of the returned route against the obstacles' own positions, a grid search for
 //! the existence of a static route), never against the planner's own risk figure.
 
+mod common;
+
 use planner::geometry::{Point, dist, dist_point_segment, lerp};
 use planner::stack::mission_stack;
 use planner::{
@@ -32,29 +34,7 @@ fn east_state(t_s: f64) -> AircraftState {
 
 /// A 2 km leg east at 100 m MSL inside a wide zone.
 fn leg_mission() -> Mission {
-    Mission {
-        fly_zones: vec![FlyZone {
-            boundary_m: vec![
-                [-200.0, -900.0],
-                [2200.0, -900.0],
-                [2200.0, 900.0],
-                [-200.0, 900.0],
-            ],
-            alt_min_m: 0.0,
-            alt_max_m: 500.0,
-        }],
-        cylinders: vec![],
-        waypoints: vec![
-            Waypoint {
-                p_m: [0.0, 0.0],
-                alt_m: 100.0,
-            },
-            Waypoint {
-                p_m: [2000.0, 0.0],
-                alt_m: 100.0,
-            },
-        ],
-    }
+    common::one_leg_mission([-200.0, -900.0], [2200.0, 900.0])
 }
 
 /// Feeds obstacle `id` moving from `p0` at `v` (m/s) at altitude `alt`, radius `r`,

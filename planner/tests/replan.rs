@@ -2,37 +2,16 @@
 //! whose cached map is built by the seam) and the server's path (an already built map
 //! from a snapshot) give the same plan for the same inputs.
 
+mod common;
+
 use planner::stack::mission_stack;
 use planner::{
-    Aircraft, AircraftState, Dynamic, FlyZone, Mission, Replan, ReplanConfig, Strategy,
-    Termination, Waypoint, replan,
+    Aircraft, AircraftState, Dynamic, Mission, Replan, ReplanConfig, Strategy, Termination, replan,
 };
 use predictor::{Observation, Predictor, PredictorConfig};
 
 fn mission() -> Mission {
-    Mission {
-        fly_zones: vec![FlyZone {
-            boundary_m: vec![
-                [-100.0, -600.0],
-                [2100.0, -600.0],
-                [2100.0, 600.0],
-                [-100.0, 600.0],
-            ],
-            alt_min_m: 0.0,
-            alt_max_m: 500.0,
-        }],
-        cylinders: vec![],
-        waypoints: vec![
-            Waypoint {
-                p_m: [0.0, 0.0],
-                alt_m: 100.0,
-            },
-            Waypoint {
-                p_m: [2000.0, 0.0],
-                alt_m: 100.0,
-            },
-        ],
-    }
+    common::one_leg_mission([-100.0, -600.0], [2100.0, 600.0])
 }
 
 /// An obstacle crossing the leg northward at 5 m/s, observed for 10 s: it reaches the leg

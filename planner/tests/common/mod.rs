@@ -182,3 +182,31 @@ pub fn state_at_first_waypoint(mission: &planner::Mission) -> planner::AircraftS
         t_s: 0.0,
     }
 }
+
+/// A 2 km leg east from the origin at 100 m MSL inside the rectangle `lo..hi` (altitudes
+/// 0-500 m), no cylinder.
+pub fn one_leg_mission(lo: Point, hi: Point) -> planner::Mission {
+    planner::Mission {
+        fly_zones: vec![planner::FlyZone {
+            boundary_m: vec![
+                [lo[0], lo[1]],
+                [hi[0], lo[1]],
+                [hi[0], hi[1]],
+                [lo[0], hi[1]],
+            ],
+            alt_min_m: 0.0,
+            alt_max_m: 500.0,
+        }],
+        cylinders: vec![],
+        waypoints: vec![
+            planner::Waypoint {
+                p_m: [0.0, 0.0],
+                alt_m: 100.0,
+            },
+            planner::Waypoint {
+                p_m: [2000.0, 0.0],
+                alt_m: 100.0,
+            },
+        ],
+    }
+}
