@@ -137,6 +137,21 @@ pub fn detour_candidates(
 mod tests {
     use super::*;
 
+    /// Candidates from the origin at 100 m, turn radius 40 m, no cylinder, default lattice.
+    fn candidates(zones: &Zones, tail: &[StackItem], target: usize) -> Vec<Vec<StackItem>> {
+        detour_candidates(
+            [0.0, 0.0],
+            tail,
+            target,
+            100.0,
+            40.0,
+            &[],
+            zones,
+            &PrepassParams::default(),
+            &DetourParams::default(),
+        )
+    }
+
     #[test]
     fn candidates_keep_the_fixed_items_and_stay_in_the_zone() {
         let zones = Zones::single(&[
@@ -149,17 +164,7 @@ mod tests {
             StackItem::mission(0, [0.0, 1000.0], 100.0),
             StackItem::mission(1, [0.0, 1500.0], 100.0),
         ];
-        let c = detour_candidates(
-            [0.0, 0.0],
-            &tail,
-            0,
-            100.0,
-            40.0,
-            &[],
-            &zones,
-            &PrepassParams::default(),
-            &DetourParams::default(),
-        );
+        let c = candidates(&zones, &tail, 0);
         assert!(c.len() > 20, "{}", c.len());
         for cand in &c {
             assert!(cand.ends_with(&tail));
@@ -181,17 +186,7 @@ mod tests {
             StackItem::mission(0, [0.0, 1000.0], 100.0),
             StackItem::mission(1, [0.0, 2000.0], 100.0),
         ];
-        let c = detour_candidates(
-            [0.0, 0.0],
-            &tail,
-            1,
-            100.0,
-            40.0,
-            &[],
-            &zones,
-            &PrepassParams::default(),
-            &DetourParams::default(),
-        );
+        let c = candidates(&zones, &tail, 1);
         assert!(!c.is_empty());
         for cand in &c {
             assert_eq!(cand.first(), Some(&tail[0]), "{cand:?}");

@@ -7,9 +7,8 @@ mod common;
 use planner::geometry::{Point, dist, dist_point_segment, lerp};
 use planner::stack::mission_stack;
 use planner::{
-    Aircraft, AircraftState, Cylinder, Dynamic, FlyZone, ItemKind, Mission, PlanOutcome,
-    PlanParams, PlanRequest, Replan, ReplanConfig, StackItem, Strategy, Termination, Waypoint,
-    plan, replan,
+    Aircraft, AircraftState, Cylinder, Dynamic, ItemKind, Mission, PlanOutcome, PlanParams,
+    PlanRequest, Replan, ReplanConfig, StackItem, Strategy, Termination, Waypoint, plan, replan,
 };
 use predictor::{NoRisk, Observation, Predictor, PredictorConfig};
 use rand::{RngExt, SeedableRng};
@@ -329,16 +328,7 @@ fn with_cylinders_alone_a_clear_route_is_found_whenever_one_exists() {
         }
         checked += 1;
         let m = Mission {
-            fly_zones: vec![FlyZone {
-                boundary_m: vec![
-                    [lo[0], lo[1]],
-                    [hi[0], lo[1]],
-                    [hi[0], hi[1]],
-                    [lo[0], hi[1]],
-                ],
-                alt_min_m: 0.0,
-                alt_max_m: 500.0,
-            }],
+            fly_zones: vec![common::rect_zone(lo, hi)],
             cylinders: cylinders.clone(),
             waypoints: waypoints.clone(),
         };

@@ -187,16 +187,7 @@ pub fn state_at_first_waypoint(mission: &planner::Mission) -> planner::AircraftS
 /// 0-500 m), no cylinder.
 pub fn one_leg_mission(lo: Point, hi: Point) -> planner::Mission {
     planner::Mission {
-        fly_zones: vec![planner::FlyZone {
-            boundary_m: vec![
-                [lo[0], lo[1]],
-                [hi[0], lo[1]],
-                [hi[0], hi[1]],
-                [lo[0], hi[1]],
-            ],
-            alt_min_m: 0.0,
-            alt_max_m: 500.0,
-        }],
+        fly_zones: vec![rect_zone(lo, hi)],
         cylinders: vec![],
         waypoints: vec![
             planner::Waypoint {
@@ -208,5 +199,19 @@ pub fn one_leg_mission(lo: Point, hi: Point) -> planner::Mission {
                 alt_m: 100.0,
             },
         ],
+    }
+}
+
+/// The rectangle `lo..hi` as a fly zone with altitudes 0-500 m MSL.
+pub fn rect_zone(lo: Point, hi: Point) -> planner::FlyZone {
+    planner::FlyZone {
+        boundary_m: vec![
+            [lo[0], lo[1]],
+            [hi[0], lo[1]],
+            [hi[0], hi[1]],
+            [lo[0], hi[1]],
+        ],
+        alt_min_m: 0.0,
+        alt_max_m: 500.0,
     }
 }
