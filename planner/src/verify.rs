@@ -20,7 +20,12 @@
 //! that position is the situation's, not the plan's (the autopilot loops round to it).
 //!
 //! A plan is clear ([`Verification::is_clear`]) when no cylinder is entered, the fly zone is
-//! never left, every item is reachable and the peak risk is at most the safe risk.
+//! never left, every item is reachable and the risk stays under a time-graded limit: the
+//! safe risk for the first [`VerifyParams::near_s`] seconds (the time the aircraft needs to
+//! turn away), growing linearly to [`VerifyParams::far_risk`] at the horizon. The far
+//! prediction is spread thin and revised at every replan, so a wall there made every route
+//! "unclear" and the plan changed every second (issue 10: 80 avoid targets a run, path
+//! ratio 2.05); as the aircraft closes in, the same risk falls under the near limit.
 //!
 //! # Units
 //! ENU metres, metres MSL, seconds, m/s; `heading_rad` is a compass heading (clockwise
@@ -41,6 +46,11 @@ pub struct VerifyParams {
     /// Dynamic risk within this many seconds of the start counts as "near" (the time the
     /// aircraft needs to turn away), seconds. Default 20.
     pub near_s: f64,
+    /// The risk a route may meet at the end of the horizon. The limit is the plan's safe
+    /// risk up to [`VerifyParams::near_s`], then grows linearly to this at the horizon:
+    /// the far prediction is spread thin and is revised every replan, so it is a cost
+    /// there, not a wall (receding horizon). Default 0.3.
+    pub far_risk: f64,
 }
 
 impl Default for VerifyParams {
@@ -48,6 +58,7 @@ impl Default for VerifyParams {
         Self {
             step_m: 3.0,
             near_s: 20.0,
+            far_risk: 0.3,
         }
     }
 }
@@ -97,6 +108,10 @@ pub struct Verification {
     pub peak_risk: f64,
     /// Highest risk read within [`VerifyParams::near_s`] of the start.
     pub near_peak_risk: f64,
+    /// Highest risk read relative to the time-graded limit, scaled to the safe risk
+    /// (`risk * safe_risk / limit(t)`): at most the safe risk when the route is clear.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub graded_peak_risk: f64,
     /// Integral of risk along the flown path, metres at risk 1.
     pub exposure_m: f64,
     /// Cylinders entered (counted once per cylinder).
@@ -117,9 +132,11 @@ impl Verification {
         self.cylinder_hits + self.zone_exits + usize::from(self.unreachable.is_some())
     }
 
-    /// Clear: no hard violation and a peak risk of at most `safe_risk`.
+    /// Clear: no hard violation and no risk above the time-graded limit (`safe_risk`
+    /// within [`VerifyParams::near_s`], growing to [`VerifyParams::far_risk`] at the
+    /// horizon).
     pub fn is_clear(&self, safe_risk: f64) -> bool {
-        self.hard() == 0 && self.peak_risk <= safe_risk
+        self.hard() == 0 && self.graded_peak_risk <= safe_risk
     }
 
     /// Orders two verifications of candidate routes: fewer hard violations, then clear
@@ -129,14 +146,17 @@ impl Verification {
         if self.hard() != other.hard() {
             return self.hard() < other.hard();
         }
-        let (a_clear, b_clear) = (self.peak_risk <= safe_risk, other.peak_risk <= safe_risk);
+        let (a_clear, b_clear) = (
+            self.graded_peak_risk <= safe_risk,
+            other.graded_peak_risk <= safe_risk,
+        );
         if a_clear != b_clear {
             return a_clear;
         }
         if !a_clear {
             for (a, b) in [
                 (self.near_peak_risk, other.near_peak_risk),
-                (self.peak_risk, other.peak_risk),
+                (self.graded_peak_risk, other.graded_peak_risk),
                 (self.exposure_m, other.exposure_m),
             ] {
                 if (a - b).abs() > 1e-9 {
@@ -156,6 +176,8 @@ struct Acc<'a> {
     out: Verification,
     safe_risk: f64,
     near_end_s: f64,
+    /// The limit grows by this per second after `near_end_s`.
+    limit_slope: f64,
     hit: Vec<bool>,
     cylinders: &'a [Cylinder],
 }
@@ -167,10 +189,19 @@ impl Acc<'_> {
         }
         let r = env.risk.risk(p, t);
         self.out.peak_risk = self.out.peak_risk.max(r);
-        if t <= self.near_end_s {
+        let limit = if t <= self.near_end_s {
             self.out.near_peak_risk = self.out.near_peak_risk.max(r);
-        }
-        if r > self.safe_risk && self.out.conflict.is_none() {
+            self.safe_risk
+        } else {
+            self.safe_risk + self.limit_slope * (t - self.near_end_s)
+        };
+        let graded = if limit > 0.0 {
+            r * self.safe_risk / limit
+        } else {
+            r
+        };
+        self.out.graded_peak_risk = self.out.graded_peak_risk.max(graded);
+        if r > limit && self.out.conflict.is_none() {
             self.out.conflict = Some(Conflict::Risk {
                 risk: r,
                 p_m: p,
@@ -211,10 +242,17 @@ pub fn verify_route<'e>(
     params: &VerifyParams,
 ) -> Verification {
     let env0 = env_at(state.alt_m);
+    let near_end_s = state.t_s + params.near_s;
+    let far_span = env0.horizon_end_s - near_end_s;
     let mut acc = Acc {
         out: Verification::default(),
         safe_risk,
-        near_end_s: state.t_s + params.near_s,
+        near_end_s,
+        limit_slope: if far_span > 0.0 {
+            (params.far_risk - safe_risk).max(0.0) / far_span
+        } else {
+            0.0
+        },
         hit: vec![false; env0.cylinders.len()],
         cylinders: env0.cylinders,
     };
@@ -474,5 +512,35 @@ mod tests {
         let v = check(&Mover, &[], &late, &tail);
         assert!(!v.is_clear(0.05));
         assert!(matches!(v.conflict, Some(Conflict::Risk { .. })));
+    }
+
+    /// Risk 0.2 in the band 480 m <= y <= 520 m, at every time.
+    struct Band;
+    impl RiskField for Band {
+        fn risk(&self, p: [f64; 2], _t: f64) -> f64 {
+            if (480.0..=520.0).contains(&p[1]) { 0.2 } else { 0.0 }
+        }
+    }
+
+    #[test]
+    fn the_risk_limit_is_graded_in_time_a_wall_near_and_a_cost_far() {
+        // Flying north at 20 m/s the band is met at t = 25 s. Starting at y = 0 it is
+        // 5 s past the near window: the limit there is 0.05 + 0.25 * 5 / 40 = 0.081,
+        // below 0.2: unclear. Starting at y = -600, it is met at t = 55 s, where the
+        // limit is 0.05 + 0.25 * 35 / 40 = 0.269: clear.
+        let tail = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
+        let near = check(&Band, &[], &state(0.0), &tail);
+        assert!(!near.is_clear(0.05), "{near:?}");
+        assert!(matches!(near.conflict, Some(Conflict::Risk { .. })));
+        let mut s = state(0.0);
+        s.p_m = [0.0, -600.0];
+        let far = check(&Band, &[], &s, &tail);
+        assert!(far.is_clear(0.05), "{far:?}");
+        assert!((far.peak_risk - 0.2).abs() < 1e-12, "the raw peak is still reported");
+        let want = 0.2 * 0.05 / (0.05 + 0.25 * 35.0 / 40.0);
+        assert!((far.graded_peak_risk - want).abs() < 0.01, "{far:?}");
+        // A far band is still worse than no band at all when lengths are equal.
+        let clean = check(&NoRisk, &[], &s, &tail);
+        assert!(!far.better_than(&clean, 0.05));
     }
 }

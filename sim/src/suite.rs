@@ -70,6 +70,9 @@ pub struct SummaryRow {
     pub completed: f64,
     /// Mean path-length ratio.
     pub path_ratio: f64,
+    /// Median path-length ratio (the target is on the median).
+    #[serde(default)]
+    pub path_ratio_p50: f64,
     /// Median of the runs' minimum clearance, metres.
     pub min_clearance_p50_m: f64,
     /// Mean avoid waypoints reached.
@@ -207,6 +210,12 @@ fn summarise(
         waypoint_rate: ratio(&|r| r.metrics.waypoints_captured, &|r| r.metrics.waypoints),
         completed: mean(&|r| f64::from(u8::from(r.metrics.completed))),
         path_ratio: mean(&|r| r.metrics.path_ratio),
+        path_ratio_p50: percentile(
+            &rs.iter()
+                .map(|(_, r, _)| r.metrics.path_ratio)
+                .collect::<Vec<_>>(),
+            0.5,
+        ),
         min_clearance_p50_m: percentile(&clear, 0.5),
         waypoints_added: mean(&|r| r.metrics.waypoints_added as f64),
         avoid_targets: mean(&|r| r.metrics.avoid_targets as f64),
