@@ -9,7 +9,7 @@ use planner::plan::leg_seed;
 use planner::stack::mission_stack;
 use planner::{
     Aircraft, AircraftState, Cylinder, FlyZone, ItemKind, Mission, PlanOutcome, PlanParams,
-    PlanRequest, Waypoint, plan,
+    PlanRequest, plan,
 };
 use predictor::field::NoRisk;
 use proptest::prelude::*;
@@ -179,15 +179,8 @@ fn a_mover_crossing_the_leg_is_dodged() {
 fn starting_inside_a_cylinder_is_an_outcome() {
     let m = Mission {
         fly_zones: vec![],
-        cylinders: vec![Cylinder {
-            center_m: [0.0, 0.0],
-            radius_m: 50.0,
-            top_m: 200.0,
-        }],
-        waypoints: vec![Waypoint {
-            p_m: [500.0, 0.0],
-            alt_m: 100.0,
-        }],
+        cylinders: vec![common::cylinder([0.0, 0.0], 50.0)],
+        waypoints: common::waypoints_at_100m(&[[500.0, 0.0]]),
     };
     let stack = mission_stack(&m);
     let p = plan(
@@ -212,21 +205,8 @@ fn starting_inside_a_cylinder_is_an_outcome() {
 fn a_waypoint_inside_a_cylinder_is_an_outcome() {
     let m = Mission {
         fly_zones: vec![],
-        cylinders: vec![Cylinder {
-            center_m: [500.0, 0.0],
-            radius_m: 50.0,
-            top_m: 200.0,
-        }],
-        waypoints: vec![
-            Waypoint {
-                p_m: [0.0, 0.0],
-                alt_m: 100.0,
-            },
-            Waypoint {
-                p_m: [510.0, 0.0],
-                alt_m: 100.0,
-            },
-        ],
+        cylinders: vec![common::cylinder([500.0, 0.0], 50.0)],
+        waypoints: common::waypoints_at_100m(&[[0.0, 0.0], [510.0, 0.0]]),
     };
     let stack = mission_stack(&m);
     let p = plan(
@@ -262,16 +242,7 @@ fn a_deadline_already_passed_returns_the_pre_pass_plan_as_a_timeout() {
     let m = Mission {
         fly_zones: vec![],
         cylinders: vec![],
-        waypoints: vec![
-            Waypoint {
-                p_m: [0.0, 0.0],
-                alt_m: 100.0,
-            },
-            Waypoint {
-                p_m: [2000.0, 0.0],
-                alt_m: 100.0,
-            },
-        ],
+        waypoints: common::waypoints_at_100m(&[[0.0, 0.0], [2000.0, 0.0]]),
     };
     let field = Blobs(vec![Blob {
         p0_m: [600.0, -150.0],
@@ -338,13 +309,8 @@ fn mission_strategy() -> impl Strategy<Value = Mission> {
         proptest::collection::vec((300.0..1700.0f64, 300.0..1700.0f64, 20.0..80.0f64), 0..6),
     )
         .prop_map(|(wps, cyls)| {
-            let waypoints: Vec<Waypoint> = wps
-                .iter()
-                .map(|&(x, y)| Waypoint {
-                    p_m: [x, y],
-                    alt_m: 100.0,
-                })
-                .collect();
+            let points: Vec<Point> = wps.iter().map(|&(x, y)| [x, y]).collect();
+            let waypoints = common::waypoints_at_100m(&points);
             let mut cylinders: Vec<Cylinder> = Vec::new();
             for (x, y, r) in cyls {
                 let c = [x, y];
