@@ -119,13 +119,7 @@ async fn webster_with_traffic(app: &App) -> String {
                         "alt_msl_m": 60.0, "radius_m": OBSTACLE_0_RADIUS_M}));
         obs.push(json!({"obstacle_id": "1", "t": t, "lat": 38.149, "lon": -76.430, "alt_msl_m": 80.0, "radius_m": 15.0}));
     }
-    let r = app
-        .post_json(
-            &format!("/api/v1/missions/{id}/obstacles"),
-            &json!({"observations": obs}),
-        )
-        .await;
-    assert_eq!(r.status(), 202);
+    app.post_observations(&id, json!(obs)).await;
     id
 }
 
@@ -228,15 +222,7 @@ async fn a_plan_downloads_as_json_qgc_wpl_and_qgc_plan(app: App) {
     assert_eq!(app.get_json(&base).await, p);
     assert_eq!(app.get_json(&format!("{base}?format=json")).await, p);
 
-    let r = app.get(&format!("{base}/qgc-wpl")).await;
-    assert_eq!(r.status(), 200);
-    assert!(
-        r.headers()["content-type"]
-            .to_str()
-            .unwrap()
-            .starts_with("text/plain")
-    );
-    let text = r.text().await.unwrap();
+    let text = app.get_text(&format!("{base}/qgc-wpl"), "text/plain").await;
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines[0], "QGC WPL 110");
     assert_eq!(lines.len(), 2 + p["waypoints"].as_array().unwrap().len());
@@ -406,13 +392,7 @@ async fn a_stored_plan_replays_identically_even_after_more_telemetry(app: App) {
                         "lon": -76.4262, "alt_msl_m": 60.0, "radius_m": 30.0})
         })
         .collect();
-    let r = app
-        .post_json(
-            &format!("/api/v1/missions/{id}/obstacles"),
-            &json!({"observations": late}),
-        )
-        .await;
-    assert_eq!(r.status(), 202);
+    app.post_observations(&id, json!(late)).await;
     let v: Value = app
         .client
         .post(app.url(&replay_path))
