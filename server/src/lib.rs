@@ -5,14 +5,30 @@
 //! timestamps and geodesy live in the `wire` crate (re-exported here as `interop`,
 //! `mission`, `time`, `geodesy`).
 
-pub mod api;
-pub mod app;
-pub mod cli;
-pub mod error;
-pub mod extract;
-pub mod live;
-pub mod metrics;
-mod render;
-pub mod store;
+//!
+//! The public surface is only what the `jink` binary and the tests need: [`run`] (the CLI),
+//! [`router`] over an [`AppState`] and a [`Store`] (the service in-process, as
+//! `tests/no_panic.rs` drives it), and [`openapi_json`] (the drift test). Everything else
+//! is crate-private.
 
-pub use wire::{geodesy, interop, mission, time};
+mod api;
+mod app;
+mod cli;
+mod error;
+mod extract;
+// Dead items in here (`MissionLive::mission`, `LiveStates::len`/`is_empty`,
+// `PlanView::variability`, `SERVICE_CELL_M`, `SERVICE_MARGIN_M`, `SLICE_DT_S`,
+// `Snapshot::build_ms`) came to light when this crate's API narrowed; they are left to the
+// live-state work under way there. Remove this allow with them.
+#[allow(dead_code)]
+mod live;
+mod metrics;
+mod render;
+mod store;
+
+pub(crate) use wire::{geodesy, mission, time};
+
+pub use api::openapi_json;
+pub use app::{AppState, Settings, router};
+pub use cli::run;
+pub use store::Store;
