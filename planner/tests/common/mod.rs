@@ -193,6 +193,16 @@ pub fn one_leg_mission(lo: Point, hi: Point) -> planner::Mission {
     }
 }
 
+/// A mission without fly zone (unbounded): `cylinders`, and waypoints at 100 m MSL through
+/// `points`.
+pub fn open_mission(cylinders: Vec<planner::Cylinder>, points: &[Point]) -> planner::Mission {
+    planner::Mission {
+        fly_zones: vec![],
+        cylinders,
+        waypoints: waypoints_at_100m(points),
+    }
+}
+
 /// Mission waypoints at 100 m MSL through `points`, in order.
 pub fn waypoints_at_100m(points: &[Point]) -> Vec<planner::Waypoint> {
     points
