@@ -3,14 +3,12 @@
 use serde_json::{Value, json};
 
 use crate::both_stores;
-use crate::support::{App, fixture, ingest_counts};
+use crate::support::{App, ingest_counts};
 
 both_stores!(acknowledged_writes_survive_kill_9);
 
 async fn acknowledged_writes_survive_kill_9(mut app: App) {
-    let id = app
-        .create_mission(&fixture("mission_2021_webster_field.json"))
-        .await;
+    let id = app.create_webster_mission().await;
     let path = format!("/api/v1/missions/{id}/obstacles");
     // 50 acknowledged batches in quick succession, then SIGKILL with no pause.
     for i in 0..50 {

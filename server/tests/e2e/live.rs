@@ -9,7 +9,7 @@ use serde_json::{Value, json};
 
 use crate::both_stores;
 use crate::plans::plan;
-use crate::support::{App, Db, fixture, warning_codes};
+use crate::support::{App, Db, warning_codes};
 
 both_stores!(
     a_plan_lists_the_obstacles_it_used_with_the_stages_the_operator_sees,
@@ -21,9 +21,7 @@ const T0: f64 = 1_700_000_000.0;
 
 /// The Webster mission with [`webster_flight_on`]'s traffic.
 async fn webster_flight(app: &App, secs: u32) -> String {
-    let id = app
-        .create_mission(&fixture("mission_2021_webster_field.json"))
-        .await;
+    let id = app.create_webster_mission().await;
     webster_flight_on(app, &id, secs).await;
     id
 }
@@ -135,9 +133,7 @@ async fn two_replicas_on_one_postgresql_plan_alike() {
     let b = a.replica();
     // B goes live on the mission before A's batches arrive, so only the notifications
     // (or B's catch-up read) can bring them.
-    let id = a
-        .create_mission(&fixture("mission_2021_webster_field.json"))
-        .await;
+    let id = a.create_webster_mission().await;
     assert_eq!(stages(&b, &id).await.len(), 0);
     webster_flight_on(&a, &id, 6).await;
     // Within a bounded delay B shows what A shows.

@@ -5,7 +5,7 @@
 use serde_json::{Value, json};
 
 use crate::both_stores;
-use crate::support::{App, by_id, fixture};
+use crate::support::{App, by_id};
 
 both_stores!(a_straight_track_is_characterized_mapped_and_survives_a_restart);
 
@@ -48,9 +48,7 @@ async fn obstacle_7(app: &App, path: &str) -> Value {
 }
 
 async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app: App) {
-    let id = app
-        .create_mission(&fixture("mission_2021_webster_field.json"))
-        .await;
+    let id = app.create_webster_mission().await;
     let path = format!("/api/v1/missions/{id}/obstacles");
     // 70 s of telemetry in 7 batches.
     for b in 0..7 {

@@ -232,6 +232,19 @@ impl App {
         assert_eq!(r.status(), 202, "POST {path}");
     }
 
+    /// POSTs JSON `body` to `path`: asserts 200 and returns the answer.
+    pub async fn post_ok(&self, path: &str, body: &Value) -> Value {
+        let r = self.post_json(path, body).await;
+        assert_eq!(r.status(), 200, "POST {path}");
+        r.json().await.unwrap()
+    }
+
+    /// Uploads the Webster Field mission (interop 2019+ fixture) and returns its id.
+    pub async fn create_webster_mission(&self) -> String {
+        self.create_mission(&fixture("mission_2021_webster_field.json"))
+            .await
+    }
+
     /// Uploads a mission and returns its id.
     pub async fn create_mission(&self, body: &Value) -> String {
         let r = self.post_json("/api/v1/missions", body).await;
@@ -319,6 +332,19 @@ pub fn warning_codes(plan: &Value) -> Vec<String> {
         .unwrap_or_else(|| panic!("no warnings in {plan}"))
         .iter()
         .map(|w| w["code"].as_str().unwrap().to_string())
+        .collect()
+}
+
+/// The number `key` of each element of a JSON list, in order.
+pub fn nums(list: &Value, key: &str) -> Vec<f64> {
+    list.as_array()
+        .unwrap_or_else(|| panic!("not a list: {list}"))
+        .iter()
+        .map(|o| {
+            o[key]
+                .as_f64()
+                .unwrap_or_else(|| panic!("no number {key} in {o}"))
+        })
         .collect()
 }
 

@@ -4,7 +4,7 @@ use approx::assert_abs_diff_eq;
 use serde_json::{Value, json};
 
 use crate::both_stores;
-use crate::support::{App, fixture, ingest_counts, num, pointers, problem, problem_about};
+use crate::support::{App, fixture, ingest_counts, num, nums, pointers, problem, problem_about};
 
 both_stores!(
     duplicate_and_out_of_order_observations_are_stored_once_in_time_order,
@@ -18,9 +18,7 @@ fn obs(id: &str, t: f64, lat: f64) -> Value {
 }
 
 async fn duplicate_and_out_of_order_observations_are_stored_once_in_time_order(app: App) {
-    let id = app
-        .create_mission(&fixture("mission_2021_webster_field.json"))
-        .await;
+    let id = app.create_webster_mission().await;
     let path = format!("/api/v1/missions/{id}/obstacles");
     // Radio links reorder: t = 3, 1, 2 for obstacle a; b interleaved; an RFC 3339 time.
     let batch = json!({"observations": [obs("a", 1_700_000_003.0, 38.143), obs("a", 1_700_000_001.0, 38.141),
@@ -37,12 +35,7 @@ async fn duplicate_and_out_of_order_observations_are_stored_once_in_time_order(a
     let all = app
         .get_json(&format!("/api/v1/missions/{id}/observations"))
         .await;
-    let ts: Vec<f64> = all
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|o| o["t"].as_f64().unwrap())
-        .collect();
+    let ts = nums(&all, "t");
     assert_eq!(
         ts,
         vec![
@@ -58,35 +51,21 @@ async fn duplicate_and_out_of_order_observations_are_stored_once_in_time_order(a
             "/api/v1/missions/{id}/observations?obstacle_id=a&after=1700000002"
         ))
         .await;
-    let lats: Vec<f64> = a
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|o| o["lat"].as_f64().unwrap())
-        .collect();
+    let lats = nums(&a, "lat");
     assert_eq!(lats, vec![38.143, 38.144]);
 }
 
 async fn an_interop_2018_snapshot_is_stored_by_index_in_metres(app: App) {
     let id = app.create_mission(&fixture("mission_2018.json")).await;
     let path = format!("/api/v1/missions/{id}/obstacles");
-    let r = app
-        .post_json(
-            &format!("{path}?time=2018-06-14T15:00:00Z"),
-            &fixture("obstacles_2018.json"),
-        )
-        .await;
+    let mut snap = fixture("obstacles_2018.json");
+    let at = |time: &str| format!("{path}?time={time}");
+    let r = app.post_json(&at("2018-06-14T15:00:00Z"), &snap).await;
     assert_eq!(ingest_counts(r).await, (2, 0));
     // The same snapshot at the same time is a duplicate.
-    let r = app
-        .post_json(
-            &format!("{path}?time=1528988400"),
-            &fixture("obstacles_2018.json"),
-        )
-        .await;
+    let r = app.post_json(&at("1528988400"), &snap).await;
     assert_eq!(ingest_counts(r).await, (0, 2));
     // A `time` field in the body stamps it too.
-    let mut snap = fixture("obstacles_2018.json");
     snap["time"] = json!(1528988401.0);
     let r = app.post_json(&path, &snap).await;
     assert_eq!(ingest_counts(r).await, (2, 0));
