@@ -4,7 +4,6 @@
 //! Positions are WGS84 degrees; the computation runs in a local ENU frame centred on the
 //! leg's start (`crate::geodesy`), and the answer comes back in degrees.
 
-use axum::extract::State;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 use utoipa_axum::{router::OpenApiRouter, routes};
@@ -109,7 +108,6 @@ fn check(errs: &mut Vec<FieldError>, ptr: &str, p: LatLon) {
         (status = 200, description = "The waypoint to insert (or null) and the candidates", body = InsertResponse),
     ))]
 async fn insert(
-    State(_state): State<AppState>,
     ApiJson(req): ApiJson<InsertRequest>,
 ) -> Result<axum::Json<InsertResponse>, ApiError> {
     let mut errs = Vec::new();

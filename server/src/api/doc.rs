@@ -210,15 +210,18 @@ fn feet(what: &str) -> Value {
     json!({"type": "number", "description": format!("{what}, feet MSL")})
 }
 
-/// An interop mission document: extra members are allowed, as the adapters ignore the parts
-/// jink does not use.
+/// An interop mission document: an integer `id` and `properties`; extra members are
+/// allowed, as the adapters ignore the parts jink does not use.
 fn interop_mission(title: &str, description: &str, required: &[&str], properties: Value) -> Value {
+    let mut props = Map::new();
+    props.insert("id".into(), json!({"type": "integer"}));
+    props.extend(properties.as_object().cloned().unwrap_or_default());
     json!({
         "type": "object",
         "title": title,
         "description": description,
         "required": required,
-        "properties": properties,
+        "properties": props,
         "additionalProperties": true,
     })
 }
@@ -244,7 +247,6 @@ fn describe_mission_formats(doc: &mut Value) {
         "Format `interop-2018`: an interop server 2017/2018 mission (`GET /api/missions/{id}`), feet.",
         &["fly_zones", "mission_waypoints"],
         json!({
-            "id": {"type": "integer"},
             "active": {"type": "boolean"},
             "home_pos": latlon("latitude", "longitude", &[]),
             "fly_zones": fly_zones(
@@ -261,7 +263,6 @@ fn describe_mission_formats(doc: &mut Value) {
         "Format `interop-2019`: an interop server 2019+ protobuf-JSON mission (camelCase; snake_case keys are accepted too), feet.",
         &["id", "flyZones"],
         json!({
-            "id": {"type": "integer"},
             "flyZones": fly_zones(
                 ["boundaryPoints", "altitudeMin", "altitudeMax"],
                 latlon("latitude", "longitude", &[]),
