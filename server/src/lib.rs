@@ -1,10 +1,10 @@
 //! jink's service: HTTP API, wire formats, geodesy, storage and the CLI.
 //!
 //! Layout: `api/` (one module per resource: router, handlers, wire types), `store/`
-//! (SQL behind one type), `cli/` (subcommands). The wire formats, their validation, wire
-//! timestamps and geodesy live in the `wire` crate (re-exported here as `interop`,
-//! `mission`, `time`, `geodesy`).
-
+//! (SQL behind one type), `live/` (per-mission live state), `render/` (pictures), `cli/`
+//! (subcommands). The wire formats, their validation, wire timestamps and geodesy live in
+//! the `wire` crate (named inside this crate as `crate::mission`, `crate::time`,
+//! `crate::geodesy`).
 //!
 //! The public surface is only what the `jink` binary and the tests need: [`run`] (the CLI),
 //! [`router`] over an [`AppState`] and a [`Store`] (the service in-process, as
