@@ -181,7 +181,7 @@ async fn webster_flight_on(app: &App, id: &str, secs: u32) {
                             "alt_msl_m": 80.0, "radius_m": 15.0}),
             );
         }
-        app.post_observations(&id, json!(obs)).await;
+        app.post_observations(id, json!(obs)).await;
     }
     let r = app
         .post_json(
