@@ -100,21 +100,16 @@ fn clearance(route: &[Point], t0: f64, speed: f64, r: f64, at: impl Fn(f64) -> P
 fn a_sphere_above_the_aircrafts_altitude_band_is_not_avoided() {
     let m = leg_mission();
     let stack = mission_stack(&m);
-    // Crossing the leg northward at 5 m/s; on the leg (x = 300) when the aircraft is.
-    let crossing = |alt: f64| {
+    // Crossing the leg northward at 5 m/s at altitude `alt`; on the leg (x = 300) when the
+    // aircraft is.
+    let cfg = config();
+    let replan_crossing_at = |alt: f64| {
         let mut p = Predictor::new(PredictorConfig::default());
         observe_mover(&mut p, "0", [300.0, -125.0], [0.0, 5.0], alt, 20.0, 10.0);
-        p
+        let r = request(&m, &stack);
+        replan(&r, Dynamic::Predictor(&p), &cfg, &Termination::none()).unwrap()
     };
-    let cfg = config();
-    let low = crossing(100.0);
-    let a = replan(
-        &request(&m, &stack),
-        Dynamic::Predictor(&low),
-        &cfg,
-        &Termination::none(),
-    )
-    .unwrap();
+    let a = replan_crossing_at(100.0);
     assert!(
         a.plan.items.iter().any(|i| i.kind == ItemKind::Avoid),
         "at the aircraft's altitude the sphere is avoided: {:?}",
@@ -123,14 +118,7 @@ fn a_sphere_above_the_aircrafts_altitude_band_is_not_avoided() {
     assert!(!a.dynamic.obstacles[0].altitude_clear);
 
     // 200 m above: radius 20 + buffer 5 + margin 10 is far from 100 m. Not avoided.
-    let high = crossing(300.0);
-    let b = replan(
-        &request(&m, &stack),
-        Dynamic::Predictor(&high),
-        &cfg,
-        &Termination::none(),
-    )
-    .unwrap();
+    let b = replan_crossing_at(300.0);
     assert_eq!(b.plan.items, stack, "{:?}", b.plan.items);
     assert_eq!(b.plan.outcome, PlanOutcome::Exact);
     assert!(b.dynamic.obstacles[0].altitude_clear);
@@ -220,17 +208,7 @@ fn a_detour_through_a_slow_sphere_that_a_threat_filter_would_drop_is_caught() {
     let map = filtered_p
         .risk_map(&cfg.map_config(&m), &base, 10.0)
         .clone();
-    let summaries: Vec<_> = p.obstacles().collect();
-    let old = replan(
-        &r,
-        Dynamic::Map {
-            map: &map,
-            obstacles: &summaries,
-        },
-        &cfg,
-        &Termination::none(),
-    )
-    .unwrap();
+    let old = common::replan_on_map(&r, &map, &p, &cfg);
     let ort = route(&r.state, &old.plan.items, old.plan.current_index);
     eprintln!(
         "filtered: slow {:.1} fast {:.1} {:?}",

@@ -9,7 +9,7 @@ use planner::plan::leg_seed;
 use planner::stack::mission_stack;
 use planner::{
     Aircraft, AircraftState, Cylinder, FlyZone, ItemKind, Mission, PlanOutcome, PlanParams,
-    PlanRequest, Waypoint, plan,
+    PlanRequest, plan,
 };
 use predictor::field::NoRisk;
 use proptest::prelude::*;
@@ -22,6 +22,31 @@ fn state_at(p: Point, alt_m: f64) -> AircraftState {
         speed_mps: 20.0,
         t_s: 0.0,
     }
+}
+
+/// At mission waypoint `i` (its position and altitude), heading north.
+fn state_at_waypoint(m: &Mission, i: usize) -> AircraftState {
+    state_at(m.waypoints[i].p_m, m.waypoints[i].alt_m)
+}
+
+/// The Webster Field mission, 10 synthetic movers drawn with `seed`, and the mission's stack.
+fn webster_with_movers(seed: u64) -> (Mission, Blobs, Vec<planner::StackItem>) {
+    let m = webster();
+    let field = synthetic_movers(&m, 10, seed);
+    let stack = mission_stack(&m);
+    (m, field, stack)
+}
+
+/// A blob (hard radius 40 m) moving north at 5 m/s from (600, -150): it crosses the leg
+/// (0,0) -> (2000,0) at x = 600 when an aircraft at 20 m/s from the origin gets there.
+fn crossing_blob() -> Blobs {
+    Blobs(vec![Blob {
+        p0_m: [600.0, -150.0],
+        v_mps: [0.0, 5.0],
+        radius_m: 40.0,
+        sigma0_m: 10.0,
+        growth_mps: 0.5,
+    }])
 }
 
 fn request<'a>(
@@ -107,9 +132,8 @@ fn webster_static_plan_is_clear_and_keeps_every_waypoint() {
     assert_eq!(m.waypoints.len(), 14);
     assert_eq!(m.cylinders.len(), 6);
     let stack = mission_stack(&m);
-    let st = state_at(m.waypoints[0].p_m, m.waypoints[0].alt_m);
-    let req = request(&m, &stack, 1, st, 1);
-    let p = plan(&req, &NoRisk).unwrap();
+    let st = state_at_waypoint(&m, 0);
+    let p = plan(&request(&m, &stack, 1, st, 1), &NoRisk).unwrap();
     eprintln!(
         "webster static: outcome {:?}, added {}, length {:.0} m, risk {}",
         p.outcome, p.added, p.length_m, p.risk
@@ -124,10 +148,8 @@ fn webster_static_plan_is_clear_and_keeps_every_waypoint() {
 
 #[test]
 fn webster_with_movers_reports_its_risk_honestly_and_is_reproducible() {
-    let m = webster();
-    let field = synthetic_movers(&m, 10, 42);
-    let stack = mission_stack(&m);
-    let st = state_at(m.waypoints[0].p_m, m.waypoints[0].alt_m);
+    let (m, field, stack) = webster_with_movers(42);
+    let st = state_at_waypoint(&m, 0);
     let req = request(&m, &stack, 1, st, 7);
     let a = plan(&req, &field).unwrap();
     let b = plan(&req, &field).unwrap();
@@ -152,13 +174,7 @@ fn a_mover_crossing_the_leg_is_dodged() {
     // One leg (0,0) -> (2000,0) at 20 m/s. A blob (hard radius 40 m) sits at (600, 0)
     // when the aircraft gets there (t = 30 s): it moves north at 5 m/s from (600, -150).
     let m = common::one_leg_mission([-500.0, -1000.0], [2500.0, 1000.0]);
-    let field = Blobs(vec![Blob {
-        p0_m: [600.0, -150.0],
-        v_mps: [0.0, 5.0],
-        radius_m: 40.0,
-        sigma0_m: 10.0,
-        growth_mps: 0.5,
-    }]);
+    let field = crossing_blob();
     let stack = mission_stack(&m);
     let st = AircraftState {
         heading_rad: std::f64::consts::FRAC_PI_2,
@@ -177,18 +193,7 @@ fn a_mover_crossing_the_leg_is_dodged() {
 
 #[test]
 fn starting_inside_a_cylinder_is_an_outcome() {
-    let m = Mission {
-        fly_zones: vec![],
-        cylinders: vec![Cylinder {
-            center_m: [0.0, 0.0],
-            radius_m: 50.0,
-            top_m: 200.0,
-        }],
-        waypoints: vec![Waypoint {
-            p_m: [500.0, 0.0],
-            alt_m: 100.0,
-        }],
-    };
+    let m = common::open_mission(vec![common::cylinder([0.0, 0.0], 50.0)], &[[500.0, 0.0]]);
     let stack = mission_stack(&m);
     let p = plan(
         &request(&m, &stack, 0, state_at([10.0, 0.0], 100.0), 0),
@@ -210,24 +215,10 @@ fn starting_inside_a_cylinder_is_an_outcome() {
 
 #[test]
 fn a_waypoint_inside_a_cylinder_is_an_outcome() {
-    let m = Mission {
-        fly_zones: vec![],
-        cylinders: vec![Cylinder {
-            center_m: [500.0, 0.0],
-            radius_m: 50.0,
-            top_m: 200.0,
-        }],
-        waypoints: vec![
-            Waypoint {
-                p_m: [0.0, 0.0],
-                alt_m: 100.0,
-            },
-            Waypoint {
-                p_m: [510.0, 0.0],
-                alt_m: 100.0,
-            },
-        ],
-    };
+    let m = common::open_mission(
+        vec![common::cylinder([500.0, 0.0], 50.0)],
+        &[[0.0, 0.0], [510.0, 0.0]],
+    );
     let stack = mission_stack(&m);
     let p = plan(
         &request(&m, &stack, 1, state_at([0.0, 0.0], 100.0), 0),
@@ -247,7 +238,7 @@ fn a_waypoint_inside_a_cylinder_is_an_outcome() {
 fn passed_items_keep_their_indices() {
     let m = webster();
     let stack = mission_stack(&m);
-    let st = state_at(m.waypoints[4].p_m, m.waypoints[4].alt_m);
+    let st = state_at_waypoint(&m, 4);
     let p = plan(&request(&m, &stack, 5, st, 9), &NoRisk).unwrap();
     assert_eq!(&p.items[..5], &stack[..5]);
     assert_eq!(p.current_index, 5);
@@ -259,27 +250,8 @@ fn a_deadline_already_passed_returns_the_pre_pass_plan_as_a_timeout() {
     // The mover of `a_mover_crossing_the_leg_is_dodged`, but no time to search: the
     // outcome says so and the (unsearched) plan is still returned, never riskier than the
     // stack.
-    let m = Mission {
-        fly_zones: vec![],
-        cylinders: vec![],
-        waypoints: vec![
-            Waypoint {
-                p_m: [0.0, 0.0],
-                alt_m: 100.0,
-            },
-            Waypoint {
-                p_m: [2000.0, 0.0],
-                alt_m: 100.0,
-            },
-        ],
-    };
-    let field = Blobs(vec![Blob {
-        p0_m: [600.0, -150.0],
-        v_mps: [0.0, 5.0],
-        radius_m: 40.0,
-        sigma0_m: 10.0,
-        growth_mps: 0.5,
-    }]);
+    let m = common::open_mission(vec![], &[[0.0, 0.0], [2000.0, 0.0]]);
+    let field = crossing_blob();
     let stack = mission_stack(&m);
     let req = request(&m, &stack, 1, state_at([0.0, 0.0], 100.0), 3);
     let term = planner::Termination::deadline(Some(std::time::Instant::now()));
@@ -306,11 +278,8 @@ fn a_deadline_already_passed_returns_the_pre_pass_plan_as_a_timeout() {
 
 #[test]
 fn plans_computed_on_other_threads_are_identical() {
-    let m = webster();
-    let field = synthetic_movers(&m, 10, 5);
-    let stack = mission_stack(&m);
-    let st = state_at(m.waypoints[0].p_m, m.waypoints[0].alt_m);
-    let req = request(&m, &stack, 1, st, 99);
+    let (m, field, stack) = webster_with_movers(5);
+    let req = request(&m, &stack, 1, state_at_waypoint(&m, 0), 99);
     let here = plan(&req, &field).unwrap();
     let there: Vec<planner::Plan> = std::thread::scope(|s| {
         let hs: Vec<_> = (0..2)
@@ -338,13 +307,8 @@ fn mission_strategy() -> impl Strategy<Value = Mission> {
         proptest::collection::vec((300.0..1700.0f64, 300.0..1700.0f64, 20.0..80.0f64), 0..6),
     )
         .prop_map(|(wps, cyls)| {
-            let waypoints: Vec<Waypoint> = wps
-                .iter()
-                .map(|&(x, y)| Waypoint {
-                    p_m: [x, y],
-                    alt_m: 100.0,
-                })
-                .collect();
+            let points: Vec<Point> = wps.iter().map(|&(x, y)| [x, y]).collect();
+            let waypoints = common::waypoints_at_100m(&points);
             let mut cylinders: Vec<Cylinder> = Vec::new();
             for (x, y, r) in cyls {
                 let c = [x, y];

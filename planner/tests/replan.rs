@@ -79,17 +79,7 @@ fn the_predictor_path_and_the_prebuilt_map_path_give_the_same_plan() {
     // The server's side: the live snapshot's map, built from its own predictor.
     let snap = fed_predictor();
     let map = planner::live_map(&snap, &m, &cfg).unwrap().unwrap().map;
-    let summaries: Vec<_> = snap.obstacles().collect();
-    let b = replan(
-        &r,
-        Dynamic::Map {
-            map: &map,
-            obstacles: &summaries,
-        },
-        &cfg,
-        &Termination::none(),
-    )
-    .unwrap();
+    let b = common::replan_on_map(&r, &map, &snap, &cfg);
 
     assert_eq!(a, b);
     assert!(a.dynamic.map_used);

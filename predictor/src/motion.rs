@@ -318,13 +318,18 @@ mod tests {
         }
     }
 
-    #[test]
-    fn particles_fly_at_constant_speed_within_the_reachable_disc() {
-        let cfg = StageConfig {
+    /// The default stages with every particle starting exactly at the estimate.
+    fn exact_start() -> StageConfig {
+        StageConfig {
             start_position_sigma_m: 0.0,
             start_heading_sigma_rad: 0.0,
             ..StageConfig::default()
-        };
+        }
+    }
+
+    #[test]
+    fn particles_fly_at_constant_speed_within_the_reachable_disc() {
+        let cfg = exact_start();
         let hist = TurnHistogram::build(&[], 0.3, &cfg);
         let m = MotionModel::new(Stage::Random, &est(10.0), &hist, 1.0, 25.0, &cfg);
         let mut rng = ChaCha8Rng::seed_from_u64(7);
@@ -340,11 +345,7 @@ mod tests {
 
     #[test]
     fn a_straight_histogram_predicts_a_straight_line() {
-        let cfg = StageConfig {
-            start_position_sigma_m: 0.0,
-            start_heading_sigma_rad: 0.0,
-            ..StageConfig::default()
-        };
+        let cfg = exact_start();
         let mut hist = TurnHistogram::build(&[], 0.1, &cfg);
         hist.counts = vec![0, 0, 0, 0, 1000, 0, 0, 0, 0];
         let m = MotionModel::new(Stage::Advanced, &est(10.0), &hist, 1.0, 25.0, &cfg);

@@ -21,9 +21,9 @@ use crate::store::Store;
 #[derive(Debug, Clone)]
 pub struct Settings {
     /// Largest accepted request body, bytes.
-    pub max_body_bytes: usize,
+    pub(crate) max_body_bytes: usize,
     /// Limits of the live mission state.
-    pub live: crate::live::LiveConfig,
+    pub(crate) live: crate::live::LiveConfig,
 }
 
 impl Default for Settings {
@@ -39,16 +39,16 @@ impl Default for Settings {
 #[derive(Clone, Debug)]
 pub struct AppState {
     /// The database.
-    pub store: Store,
+    pub(crate) store: Store,
     /// Request metrics.
-    pub metrics: Arc<Metrics>,
+    pub(crate) metrics: Arc<Metrics>,
     /// Run-time settings.
-    pub settings: Arc<Settings>,
+    pub(crate) settings: Arc<Settings>,
     /// Bounds concurrent CPU-heavy jobs (planning, risk maps) run with `spawn_blocking`.
-    pub cpu: Arc<Semaphore>,
+    pub(crate) cpu: Arc<Semaphore>,
     /// Per-mission live state: predictor and risk-map snapshots (built lazily from the
     /// store).
-    pub live: Arc<crate::live::LiveStates>,
+    pub(crate) live: Arc<crate::live::LiveStates>,
 }
 
 impl AppState {
@@ -207,16 +207,6 @@ async fn shutdown_signal() {
         () = term => {},
     }
     tracing::info!("shutting down");
-}
-
-/// Problem+json for a response produced outside the API (kept for symmetry with the
-/// fallbacks; handlers return [`ApiError`] directly).
-pub fn problem(status: StatusCode, detail: &str) -> Response {
-    ApiError::Route {
-        status,
-        detail: detail.to_string(),
-    }
-    .into_response()
 }
 
 #[cfg(test)]

@@ -9,20 +9,15 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 use utoipa::ToSchema;
 
-pub use wire::error::{FieldError, escape_pointer, serde_path_to_pointer};
+pub use wire::error::{FieldError, WireError};
 
 /// Every way a request can fail.
 #[derive(Debug, thiserror::Error)]
 pub enum ApiError {
-    /// The body parsed but some fields are invalid (422).
-    #[error("the request has {} invalid field(s)", .0.len())]
-    Validation(Vec<FieldError>),
-    /// The body or query could not be parsed (400); `pointer` names the field when known.
-    #[error("{detail}")]
-    BadRequest {
-        detail: String,
-        pointer: Option<String>,
-    },
+    /// The body or query could not be parsed (400), or it parsed but some fields are
+    /// invalid (422); the offending fields are named by pointers.
+    #[error(transparent)]
+    Wire(#[from] WireError),
     /// The addressed resource does not exist (404).
     #[error("{what} '{id}' does not exist")]
     NotFound { what: &'static str, id: String },
@@ -46,7 +41,20 @@ pub enum ApiError {
 impl ApiError {
     /// A single-field validation error.
     pub fn field(pointer: impl Into<String>, detail: impl Into<String>) -> Self {
-        Self::Validation(vec![FieldError::new(pointer, detail)])
+        Self::Wire(WireError::field(pointer, detail))
+    }
+
+    /// A validation error listing every invalid field (422).
+    pub fn validation(errs: Vec<FieldError>) -> Self {
+        Self::Wire(WireError::Validation(errs))
+    }
+
+    /// A request that could not be parsed, no field named (400).
+    pub fn bad_request(detail: impl Into<String>) -> Self {
+        Self::Wire(WireError::BadRequest {
+            detail: detail.into(),
+            pointer: None,
+        })
     }
 
     /// A 404 for `what` with id `id`.
@@ -60,8 +68,8 @@ impl ApiError {
     /// The HTTP status this error maps to.
     pub fn status(&self) -> StatusCode {
         match self {
-            Self::Validation(_) => StatusCode::UNPROCESSABLE_ENTITY,
-            Self::BadRequest { .. } => StatusCode::BAD_REQUEST,
+            Self::Wire(WireError::Validation(_)) => StatusCode::UNPROCESSABLE_ENTITY,
+            Self::Wire(WireError::BadRequest { .. }) => StatusCode::BAD_REQUEST,
             Self::NotFound { .. } => StatusCode::NOT_FOUND,
             Self::Conflict(_) => StatusCode::CONFLICT,
             Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
@@ -73,8 +81,8 @@ impl ApiError {
 
     fn kind(&self) -> (&'static str, &'static str) {
         match self {
-            Self::Validation(_) => ("validation", "Invalid request content"),
-            Self::BadRequest { .. } => ("bad-request", "Malformed request"),
+            Self::Wire(WireError::Validation(_)) => ("validation", "Invalid request content"),
+            Self::Wire(WireError::BadRequest { .. }) => ("bad-request", "Malformed request"),
             Self::NotFound { .. } => ("not-found", "Resource not found"),
             Self::Conflict(_) => ("conflict", "Conflict with the current state"),
             Self::UnsupportedMediaType(_) => ("unsupported-media-type", "Unsupported media type"),
@@ -92,14 +100,14 @@ impl ApiError {
         let (slug, title) = self.kind();
         let status = self.status();
         let (detail, errors) = match self {
-            Self::Validation(errs) => {
+            Self::Wire(WireError::Validation(errs)) => {
                 let first = errs.first().map(|e| format!("{}: {}", e.pointer, e.detail));
                 (first.unwrap_or_else(|| self.to_string()), errs.clone())
             }
-            Self::BadRequest {
+            Self::Wire(WireError::BadRequest {
                 detail,
                 pointer: Some(p),
-            } => (
+            }) => (
                 detail.clone(),
                 vec![FieldError::new(p.clone(), detail.clone())],
             ),
@@ -173,22 +181,13 @@ impl From<tokio::task::JoinError> for ApiError {
     }
 }
 
-impl From<wire::WireError> for ApiError {
-    fn from(e: wire::WireError) -> Self {
-        match e {
-            wire::WireError::Validation(errs) => Self::Validation(errs),
-            wire::WireError::BadRequest { detail, pointer } => Self::BadRequest { detail, pointer },
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn a_validation_error_names_its_first_field_in_the_detail() {
-        let e = ApiError::Validation(vec![
+        let e = ApiError::validation(vec![
             FieldError::new("/waypoints/1/lat", "latitude 91 is outside [-90, 90]"),
             FieldError::new("/fly_zones", "at least one fly zone is required"),
         ]);

@@ -7,7 +7,7 @@ use axum::extract::{FromRequest, FromRequestParts, Query, Request};
 use axum::http::{HeaderMap, StatusCode, header, request::Parts};
 use serde::de::DeserializeOwned;
 
-use crate::error::{ApiError, serde_path_to_pointer};
+use crate::error::ApiError;
 
 /// The media type family of a request body.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -65,39 +65,13 @@ fn bytes_rejection(r: BytesRejection) -> ApiError {
             "the request body is larger than this server accepts ({r}); send smaller batches or raise --max-body-bytes"
         ))
     } else {
-        ApiError::BadRequest {
-            detail: format!("could not read the request body: {r}"),
-            pointer: None,
-        }
+        ApiError::bad_request(format!("could not read the request body: {r}"))
     }
 }
 
-/// Parses JSON bytes into `T`, naming the offending field of a type error.
+/// Parses JSON bytes into `T`, naming the offending field of a type error (400).
 pub fn parse_json<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, ApiError> {
-    let de = &mut serde_json::Deserializer::from_slice(bytes);
-    serde_path_to_error::deserialize(de).map_err(|e| {
-        let pointer = serde_path_to_pointer(e.path());
-        let inner = e.into_inner();
-        if inner.is_syntax() || inner.is_eof() {
-            ApiError::BadRequest {
-                detail: format!("the body is not valid JSON: {inner}"),
-                pointer: None,
-            }
-        } else {
-            ApiError::BadRequest {
-                detail: format!(
-                    "{}: {inner}",
-                    if pointer.is_empty() { "/" } else { &pointer }
-                ),
-                pointer: Some(pointer),
-            }
-        }
-    })
-}
-
-/// Deserializes an already parsed JSON value into `T`, naming the offending field (400).
-pub fn from_value<T: DeserializeOwned>(value: serde_json::Value) -> Result<T, ApiError> {
-    Ok(wire::from_value(value)?)
+    Ok(wire::error::from_slice(bytes)?)
 }
 
 /// Insists on a JSON content type.
@@ -141,9 +115,8 @@ impl<S: Send + Sync, T: DeserializeOwned> FromRequestParts<S> for ApiQuery<T> {
         Query::<T>::from_request_parts(parts, state)
             .await
             .map(|Query(v)| ApiQuery(v))
-            .map_err(|e: QueryRejection| ApiError::BadRequest {
-                detail: format!("invalid query string: {}", e.body_text()),
-                pointer: None,
+            .map_err(|e: QueryRejection| {
+                ApiError::bad_request(format!("invalid query string: {}", e.body_text()))
             })
     }
 }

@@ -1,5 +1,5 @@
 //! The `jink` binary; everything lives in the library.
 
 fn main() -> std::process::ExitCode {
-    server::cli::run()
+    server::run()
 }

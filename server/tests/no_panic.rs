@@ -1,5 +1,5 @@
 //! No input reaches a panic or a 5xx: arbitrary bytes, mutated documents and arbitrary
-//! query strings go through the real router (`server::app::router`, with every layer) with
+//! query strings go through the real router (`server::router`, with every layer) with
 //! tower's `oneshot`, against a fresh SQLite store holding one mission.
 //!
 //! Parsers covered: mission upload in the three formats (native, interop 2018, interop
@@ -15,8 +15,7 @@ use axum::body::Body;
 use axum::http::{Method, Request, header};
 use proptest::prelude::*;
 use serde_json::{Value, json};
-use server::app::{AppState, Settings, router};
-use server::store::Store;
+use server::{AppState, Settings, Store, router};
 use tower::ServiceExt;
 
 /// One router over one store, shared by every case (building a store per case would make

@@ -4,7 +4,7 @@
 fn the_committed_openapi_document_matches_the_code() {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../openapi/openapi.json");
     let committed = std::fs::read_to_string(path).unwrap_or_default();
-    let generated = server::api::openapi_json();
+    let generated = server::openapi_json();
     assert!(
         committed == generated,
         "openapi/openapi.json is out of date with the code.\nRegenerate it with:\n    cargo run -p server -- openapi > openapi/openapi.json\nand commit the result."
@@ -13,7 +13,7 @@ fn the_committed_openapi_document_matches_the_code() {
 
 #[test]
 fn every_response_has_a_description() {
-    let doc: serde_json::Value = serde_json::from_str(&server::api::openapi_json()).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&server::openapi_json()).unwrap();
     for (path, ops) in doc["paths"].as_object().unwrap() {
         for (method, op) in ops.as_object().unwrap() {
             let Some(responses) = op.get("responses").and_then(|r| r.as_object()) else {
@@ -46,7 +46,7 @@ fn collect_refs(v: &serde_json::Value, out: &mut Vec<String>) {
 
 #[test]
 fn every_reference_resolves_to_a_defined_schema() {
-    let doc: serde_json::Value = serde_json::from_str(&server::api::openapi_json()).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&server::openapi_json()).unwrap();
     let mut refs = Vec::new();
     collect_refs(&doc, &mut refs);
     assert!(refs.len() > 20, "only {} references found", refs.len());
@@ -63,7 +63,7 @@ fn every_reference_resolves_to_a_defined_schema() {
 
 #[test]
 fn query_and_body_errors_and_missing_missions_are_documented() {
-    let doc: serde_json::Value = serde_json::from_str(&server::api::openapi_json()).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&server::openapi_json()).unwrap();
     let ops = [
         ("/api/v1/missions/{id}/observations", "get", ["400", "404"]),
         ("/api/v1/missions/{id}/telemetry", "get", ["400", "404"]),
@@ -84,7 +84,7 @@ fn query_and_body_errors_and_missing_missions_are_documented() {
 
 #[test]
 fn mission_is_one_flat_object_with_a_required_home() {
-    let doc: serde_json::Value = serde_json::from_str(&server::api::openapi_json()).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&server::openapi_json()).unwrap();
     let m = &doc["components"]["schemas"]["Mission"];
     assert_eq!(m["type"], "object");
     assert!(m.get("allOf").is_none());
@@ -105,7 +105,7 @@ fn mission_is_one_flat_object_with_a_required_home() {
 
 #[test]
 fn creating_a_mission_links_to_its_scoped_operations() {
-    let doc: serde_json::Value = serde_json::from_str(&server::api::openapi_json()).unwrap();
+    let doc: serde_json::Value = serde_json::from_str(&server::openapi_json()).unwrap();
     let links = &doc["paths"]["/api/v1/missions"]["post"]["responses"]["201"]["links"];
     for op in [
         "get_mission",

@@ -64,15 +64,11 @@ impl AircraftParams {
     pub fn l1_distance_m(&self) -> f64 {
         self.l1_damping * self.l1_period_s * self.speed_mps / std::f64::consts::PI
     }
-    /// Sets the speed.
-    pub fn speed_mps(mut self, v: f64) -> Self {
-        self.speed_mps = v;
-        self
-    }
-    /// Sets the maximum bank.
-    pub fn max_bank_deg(mut self, v: f64) -> Self {
-        self.max_bank_deg = v;
-        self
+    planner::setters! {
+        /// Sets the speed, m/s.
+        speed_mps(speed_mps: f64);
+        /// Sets the maximum bank, degrees.
+        max_bank_deg(max_bank_deg: f64);
     }
 }
 

@@ -152,15 +152,8 @@ pub fn generate(family: Family, seed: u64, params: &ScenarioParams) -> Scenario 
     } else {
         rng.random_range(params.spheres.0..=params.spheres.1)
     };
-    with_moving_spheres_rng(
-        mission,
-        start_m,
-        family,
-        seed,
-        n,
-        params.aircraft_speed_mps,
-        &mut rng,
-    )
+    let s = Scenario::without_spheres(family, seed, mission, start_m);
+    add_moving_spheres(s, n, params.aircraft_speed_mps, &mut rng)
 }
 
 /// Adds `n_spheres` moving spheres of `family` to a given (e.g. real) mission flown from
@@ -174,43 +167,40 @@ pub fn with_moving_spheres(
     aircraft_speed_mps: f64,
 ) -> Scenario {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0B57_AC1E);
-    with_moving_spheres_rng(
-        mission,
-        start_m,
-        family,
-        seed,
-        n_spheres.min(10),
-        aircraft_speed_mps,
-        &mut rng,
-    )
+    let s = Scenario::without_spheres(family, seed, mission, start_m);
+    add_moving_spheres(s, n_spheres.min(10), aircraft_speed_mps, &mut rng)
 }
 
-fn with_moving_spheres_rng(
-    mission: Mission,
-    start_m: [f64; 3],
-    family: Family,
-    seed: u64,
+impl Scenario {
+    /// The mission flown from `start_m` with no moving sphere yet (and no time limit).
+    fn without_spheres(family: Family, seed: u64, mission: Mission, start_m: [f64; 3]) -> Self {
+        Self {
+            family,
+            seed,
+            mission,
+            start_m,
+            spheres: Vec::new(),
+            duration_s: 0.0,
+        }
+    }
+}
+
+/// Sets the time limit (three times the straight route at `aircraft_speed_mps`, plus a
+/// minute) and draws `n_spheres` moving spheres of the scenario's family over it.
+fn add_moving_spheres(
+    mut s: Scenario,
     n_spheres: usize,
     aircraft_speed_mps: f64,
     rng: &mut ChaCha8Rng,
 ) -> Scenario {
-    let duration_s =
-        (3.0 * straight_length_m(&mission, start_m) / aircraft_speed_mps + 60.0).ceil();
-    let spheres = if family == Family::Static {
-        vec![]
-    } else {
-        (0..n_spheres)
-            .map(|_| random_sphere(&mission, start_m, family, duration_s, rng))
-            .collect()
-    };
-    Scenario {
-        family,
-        seed,
-        mission,
-        start_m,
-        spheres,
-        duration_s,
+    s.duration_s =
+        (3.0 * straight_length_m(&s.mission, s.start_m) / aircraft_speed_mps + 60.0).ceil();
+    if s.family != Family::Static {
+        s.spheres = (0..n_spheres)
+            .map(|_| random_sphere(&s.mission, s.start_m, s.family, s.duration_s, rng))
+            .collect();
     }
+    s
 }
 
 fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> (Mission, [f64; 3]) {

@@ -54,17 +54,39 @@ impl WireError {
 /// # Errors
 /// [`WireError::BadRequest`] with the pointer of the field that does not parse.
 pub fn from_value<T: DeserializeOwned>(value: serde_json::Value) -> Result<T, WireError> {
-    serde_path_to_error::deserialize(value).map_err(|e| {
-        let pointer = serde_path_to_pointer(e.path());
-        let inner = e.into_inner();
-        WireError::BadRequest {
-            detail: format!(
-                "{}: {inner}",
-                if pointer.is_empty() { "/" } else { &pointer }
-            ),
-            pointer: Some(pointer),
+    serde_path_to_error::deserialize(value).map_err(field_type_error)
+}
+
+/// Parses JSON bytes into `T`, naming the offending field of a type error.
+///
+/// # Errors
+/// [`WireError::BadRequest`]: without a pointer when the bytes are not JSON at all, else
+/// with the pointer of the field that does not parse.
+pub fn from_slice<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, WireError> {
+    let de = &mut serde_json::Deserializer::from_slice(bytes);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        if e.inner().is_syntax() || e.inner().is_eof() {
+            WireError::BadRequest {
+                detail: format!("the body is not valid JSON: {}", e.into_inner()),
+                pointer: None,
+            }
+        } else {
+            field_type_error(e)
         }
     })
+}
+
+/// A field of the wrong type, named by its pointer (also at the start of the detail).
+fn field_type_error(e: serde_path_to_error::Error<serde_json::Error>) -> WireError {
+    let pointer = serde_path_to_pointer(e.path());
+    let inner = e.into_inner();
+    WireError::BadRequest {
+        detail: format!(
+            "{}: {inner}",
+            if pointer.is_empty() { "/" } else { &pointer }
+        ),
+        pointer: Some(pointer),
+    }
 }
 
 /// Turns a `serde_path_to_error` path (`waypoints[2].lat`) into a JSON pointer
@@ -95,6 +117,21 @@ mod tests {
     #[test]
     fn pointer_tokens_are_escaped() {
         assert_eq!(escape_pointer("a/b~c"), "a~1b~0c");
+    }
+
+    #[test]
+    fn bytes_that_are_not_json_name_no_field_and_a_wrong_type_names_its_field() {
+        match from_slice::<Vec<f64>>(b"[1.0, ").unwrap_err() {
+            WireError::BadRequest { pointer, detail } => {
+                assert_eq!(pointer, None);
+                assert!(detail.starts_with("the body is not valid JSON"), "{detail}");
+            }
+            other => panic!("{other:?}"),
+        }
+        match from_slice::<Vec<f64>>(b"[1.0, true]").unwrap_err() {
+            WireError::BadRequest { pointer, .. } => assert_eq!(pointer.as_deref(), Some("/1")),
+            other => panic!("{other:?}"),
+        }
     }
 
     #[test]

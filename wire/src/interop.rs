@@ -107,11 +107,46 @@ fn parse_one(v: Value, format: SourceFormat) -> Result<(MissionInput, FieldNames
     match format {
         SourceFormat::Native => {
             let m: MissionInput = from_value(v)?;
-            let names = FieldNames::native(&m);
+            let names = FieldNames::native();
             Ok((m, names))
         }
         SourceFormat::Interop2018 => from_value::<Mission2018>(v).map(Mission2018::into_native),
         SourceFormat::Interop2019 => from_value::<Mission2019>(v).map(Mission2019::into_native),
+    }
+}
+
+// ---- both interop generations: the judges' values (feet) as native ones ----------------
+
+fn lat_lon(lat: f64, lon: f64) -> LatLon {
+    LatLon { lat, lon }
+}
+
+/// A home without altitude (the interop documents give none).
+fn home(lat: f64, lon: f64) -> Home {
+    Home {
+        lat,
+        lon,
+        alt_msl_m: None,
+    }
+}
+
+/// A waypoint at `alt_ft` feet MSL; a missing altitude becomes NaN, which validation names.
+fn waypoint_ft(lat: f64, lon: f64, alt_ft: Option<f64>) -> Waypoint {
+    Waypoint {
+        lat,
+        lon,
+        alt_msl_m: ft(alt_ft.unwrap_or(f64::NAN)),
+    }
+}
+
+/// The `i`th stationary cylinder (its id is its index in the list), radius and top in feet.
+fn cylinder_ft(i: usize, lat: f64, lon: f64, radius_ft: f64, top_ft: f64) -> StationaryObstacle {
+    StationaryObstacle {
+        id: i.to_string().into(),
+        lat,
+        lon,
+        radius_m: ft(radius_ft),
+        top_msl_m: ft(top_ft),
     }
 }
 
@@ -197,10 +232,7 @@ impl Mission2018 {
             .map(|(z, src)| FlyZone {
                 boundary: src
                     .iter()
-                    .map(|&i| LatLon {
-                        lat: z.boundary_pts[i].latitude,
-                        lon: z.boundary_pts[i].longitude,
-                    })
+                    .map(|&i| lat_lon(z.boundary_pts[i].latitude, z.boundary_pts[i].longitude))
                     .collect(),
                 alt_min_msl_m: ft(z.altitude_msl_min),
                 alt_max_msl_m: ft(z.altitude_msl_max),
@@ -210,39 +242,33 @@ impl Mission2018 {
             .iter()
             .map(|&i| {
                 let w = &self.mission_waypoints[i];
-                Waypoint {
-                    lat: w.latitude,
-                    lon: w.longitude,
-                    alt_msl_m: ft(w.altitude_msl.unwrap_or(f64::NAN)),
-                }
+                waypoint_ft(w.latitude, w.longitude, w.altitude_msl)
             })
             .collect();
         let m = MissionInput {
             name: None,
-            home: self.home_pos.map(|h| Home {
-                lat: h.latitude,
-                lon: h.longitude,
-                alt_msl_m: None,
-            }),
+            home: self.home_pos.map(|h| home(h.latitude, h.longitude)),
             fly_zones,
             waypoints,
             search_grid: grid_src
                 .iter()
-                .map(|&i| LatLon {
-                    lat: self.search_grid_points[i].latitude,
-                    lon: self.search_grid_points[i].longitude,
+                .map(|&i| {
+                    let p = &self.search_grid_points[i];
+                    lat_lon(p.latitude, p.longitude)
                 })
                 .collect(),
             stationary_obstacles: self
                 .stationary_obstacles
                 .iter()
                 .enumerate()
-                .map(|(i, c)| StationaryObstacle {
-                    id: i.to_string().into(),
-                    lat: c.latitude,
-                    lon: c.longitude,
-                    radius_m: ft(c.cylinder_radius),
-                    top_msl_m: ft(c.cylinder_height),
+                .map(|(i, c)| {
+                    cylinder_ft(
+                        i,
+                        c.latitude,
+                        c.longitude,
+                        c.cylinder_radius,
+                        c.cylinder_height,
+                    )
                 })
                 .collect(),
             moving_obstacles: self
@@ -332,11 +358,10 @@ impl Mission2019 {
             name: None,
             // The 2019+ missions carry no home; the lost-comms position is where the
             // aircraft returns to, the nearest thing to a home. Else the first vertex.
-            home: self.lost_comms_pos.as_ref().map(|p| Home {
-                lat: p.latitude,
-                lon: p.longitude,
-                alt_msl_m: None,
-            }),
+            home: self
+                .lost_comms_pos
+                .as_ref()
+                .map(|p| home(p.latitude, p.longitude)),
             fly_zones: self
                 .fly_zones
                 .iter()
@@ -344,10 +369,7 @@ impl Mission2019 {
                     boundary: z
                         .boundary_points
                         .iter()
-                        .map(|p| LatLon {
-                            lat: p.latitude,
-                            lon: p.longitude,
-                        })
+                        .map(|p| lat_lon(p.latitude, p.longitude))
                         .collect(),
                     alt_min_msl_m: ft(z.altitude_min),
                     alt_max_msl_m: ft(z.altitude_max),
@@ -356,31 +378,18 @@ impl Mission2019 {
             waypoints: self
                 .waypoints
                 .iter()
-                .map(|w| Waypoint {
-                    lat: w.latitude,
-                    lon: w.longitude,
-                    alt_msl_m: ft(w.altitude.unwrap_or(f64::NAN)),
-                })
+                .map(|w| waypoint_ft(w.latitude, w.longitude, w.altitude))
                 .collect(),
             search_grid: self
                 .search_grid_points
                 .iter()
-                .map(|p| LatLon {
-                    lat: p.latitude,
-                    lon: p.longitude,
-                })
+                .map(|p| lat_lon(p.latitude, p.longitude))
                 .collect(),
             stationary_obstacles: self
                 .stationary_obstacles
                 .iter()
                 .enumerate()
-                .map(|(i, c)| StationaryObstacle {
-                    id: i.to_string().into(),
-                    lat: c.latitude,
-                    lon: c.longitude,
-                    radius_m: ft(c.radius),
-                    top_msl_m: ft(c.height),
-                })
+                .map(|(i, c)| cylinder_ft(i, c.latitude, c.longitude, c.radius, c.height))
                 .collect(),
             moving_obstacles: vec![],
             interop_id: self.id,
@@ -399,12 +408,8 @@ impl Mission2019 {
             home: "lostCommsPos",
             lat: "latitude",
             lon: "longitude",
-            fly_zone_points_src: m
-                .fly_zones
-                .iter()
-                .map(|z| (0..z.boundary.len()).collect())
-                .collect(),
-            waypoint_src: (0..m.waypoints.len()).collect(),
+            fly_zone_points_src: Vec::new(),
+            waypoint_src: Vec::new(),
             prefix: String::new(),
         };
         (m, names)
@@ -499,22 +504,14 @@ mod tests {
 
     #[test]
     fn each_fixture_is_detected_as_its_format() {
-        assert_eq!(
-            detect_mission_format(&fixture("mission_2018.json")),
-            SourceFormat::Interop2018
-        );
-        assert_eq!(
-            detect_mission_format(&fixture("missions_list_2018_fixture.json")),
-            SourceFormat::Interop2018
-        );
-        assert_eq!(
-            detect_mission_format(&fixture("mission_2019.json")),
-            SourceFormat::Interop2019
-        );
-        assert_eq!(
-            detect_mission_format(&fixture("mission_2021_webster_field.json")),
-            SourceFormat::Interop2019
-        );
+        for (name, format) in [
+            ("mission_2018.json", SourceFormat::Interop2018),
+            ("missions_list_2018_fixture.json", SourceFormat::Interop2018),
+            ("mission_2019.json", SourceFormat::Interop2019),
+            ("mission_2021_webster_field.json", SourceFormat::Interop2019),
+        ] {
+            assert_eq!(detect_mission_format(&fixture(name)), format, "{name}");
+        }
     }
 
     #[test]

@@ -208,17 +208,18 @@ pub struct FieldNames {
     pub lat: &'static str,
     /// Longitude key.
     pub lon: &'static str,
-    /// Document index of each sorted item (interop 2018 sorts by `order`): `[list][i]`.
+    /// Document index of each sorted item (interop 2018 sorts by `order`): `[list][i]`;
+    /// an item not listed (all of them when empty) stands at its own index.
     pub fly_zone_points_src: Vec<Vec<usize>>,
-    /// Document index of each waypoint.
+    /// Document index of each waypoint (as `fly_zone_points_src`).
     pub waypoint_src: Vec<usize>,
     /// Prefix when the document is one item of a list (`/0`).
     pub prefix: String,
 }
 
 impl FieldNames {
-    /// Native field names, identity indices.
-    pub fn native(m: &MissionInput) -> Self {
+    /// Native field names, items in document order.
+    pub fn native() -> Self {
         Self {
             fly_zones: "fly_zones",
             boundary: "boundary",
@@ -233,12 +234,8 @@ impl FieldNames {
             home: "home",
             lat: "lat",
             lon: "lon",
-            fly_zone_points_src: m
-                .fly_zones
-                .iter()
-                .map(|z| (0..z.boundary.len()).collect())
-                .collect(),
-            waypoint_src: (0..m.waypoints.len()).collect(),
+            fly_zone_points_src: Vec::new(),
+            waypoint_src: Vec::new(),
             prefix: String::new(),
         }
     }
@@ -495,14 +492,14 @@ mod tests {
     }
 
     fn errors(m: MissionInput) -> Vec<FieldError> {
-        let n = FieldNames::native(&m);
+        let n = FieldNames::native();
         validate(m, &n).unwrap_err()
     }
 
     #[test]
     fn a_valid_mission_gets_the_first_vertex_as_home() {
         let m = square();
-        let n = FieldNames::native(&m);
+        let n = FieldNames::native();
         let (_, home) = validate(m, &n).unwrap();
         assert_eq!((home.lat, home.lon), (38.0, -76.0));
     }
@@ -524,7 +521,7 @@ mod tests {
             lon: -75.99,
             alt_msl_m: 200.0,
         };
-        let n = FieldNames::native(&m);
+        let n = FieldNames::native();
         assert!(validate(m, &n).is_ok());
     }
 

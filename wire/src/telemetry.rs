@@ -361,6 +361,27 @@ fn sample(
     }
 }
 
+/// Validates an interop sample `(lat, lon, altitude in feet, heading)`, its fields named
+/// `keys` (the judges' names of those four); it carries no time (stamped `received_s`) and
+/// no speed.
+fn interop_sample(
+    errs: &mut Vec<FieldError>,
+    [lat_key, lon_key, alt_key, heading_key]: [&str; 4],
+    (lat, lon, alt_ft, heading_deg): (f64, f64, f64, f64),
+    received_s: f64,
+) -> AircraftSample {
+    let s = AircraftTelemetry {
+        t: None,
+        lat,
+        lon,
+        alt_msl_m: ft(alt_ft),
+        heading_deg,
+        speed_mps: None,
+    };
+    let keys = [lat_key, lon_key, alt_key, heading_key, "-"];
+    sample(errs, "", keys, &s, received_s)
+}
+
 const NATIVE_KEYS: [&str; 5] = ["lat", "lon", "alt_msl_m", "heading_deg", "speed_mps"];
 
 /// Parses and validates posted JSON aircraft telemetry: interop 2019 (detected by its
@@ -377,16 +398,9 @@ pub fn parse_telemetry_json(
     let mut errs = Vec::new();
     let rows = if value.get("latitude").is_some() {
         let t: Telemetry2019 = from_value(value)?;
-        let s = AircraftTelemetry {
-            t: None,
-            lat: t.latitude,
-            lon: t.longitude,
-            alt_msl_m: ft(t.altitude),
-            heading_deg: t.heading,
-            speed_mps: None,
-        };
-        let keys = ["latitude", "longitude", "altitude", "heading", "-"];
-        vec![sample(&mut errs, "", keys, &s, received_s)]
+        let keys = ["latitude", "longitude", "altitude", "heading"];
+        let fields = (t.latitude, t.longitude, t.altitude, t.heading);
+        vec![interop_sample(&mut errs, keys, fields, received_s)]
     } else if value.is_array() {
         let samples: Vec<AircraftTelemetry> = from_value(value)?;
         samples
@@ -412,17 +426,10 @@ pub fn parse_telemetry_form(body: &[u8], received_s: f64) -> Result<AircraftSamp
         detail: format!("invalid interop 2018 telemetry form: {e} (expected latitude, longitude, altitude_msl, uas_heading)"),
         pointer: None,
     })?;
-    let s = AircraftTelemetry {
-        t: None,
-        lat: t.latitude,
-        lon: t.longitude,
-        alt_msl_m: ft(t.altitude_msl),
-        heading_deg: t.uas_heading,
-        speed_mps: None,
-    };
     let mut errs = Vec::new();
-    let keys = ["latitude", "longitude", "altitude_msl", "uas_heading", "-"];
-    let row = sample(&mut errs, "", keys, &s, received_s);
+    let keys = ["latitude", "longitude", "altitude_msl", "uas_heading"];
+    let fields = (t.latitude, t.longitude, t.altitude_msl, t.uas_heading);
+    let row = interop_sample(&mut errs, keys, fields, received_s);
     done(errs, row)
 }
 

@@ -189,16 +189,34 @@ pub fn one_leg_mission(lo: Point, hi: Point) -> planner::Mission {
     planner::Mission {
         fly_zones: vec![rect_zone(lo, hi)],
         cylinders: vec![],
-        waypoints: vec![
-            planner::Waypoint {
-                p_m: [0.0, 0.0],
-                alt_m: 100.0,
-            },
-            planner::Waypoint {
-                p_m: [2000.0, 0.0],
-                alt_m: 100.0,
-            },
-        ],
+        waypoints: waypoints_at_100m(&[[0.0, 0.0], [2000.0, 0.0]]),
+    }
+}
+
+/// A mission without fly zone (unbounded): `cylinders`, and waypoints at 100 m MSL through
+/// `points`.
+pub fn open_mission(cylinders: Vec<planner::Cylinder>, points: &[Point]) -> planner::Mission {
+    planner::Mission {
+        fly_zones: vec![],
+        cylinders,
+        waypoints: waypoints_at_100m(points),
+    }
+}
+
+/// Mission waypoints at 100 m MSL through `points`, in order.
+pub fn waypoints_at_100m(points: &[Point]) -> Vec<planner::Waypoint> {
+    points
+        .iter()
+        .map(|&p_m| planner::Waypoint { p_m, alt_m: 100.0 })
+        .collect()
+}
+
+/// A cylinder 200 m tall (above legs at 100 m MSL).
+pub fn cylinder(center_m: Point, radius_m: f64) -> planner::Cylinder {
+    planner::Cylinder {
+        center_m,
+        radius_m,
+        top_m: 200.0,
     }
 }
 
@@ -214,4 +232,20 @@ pub fn rect_zone(lo: Point, hi: Point) -> planner::FlyZone {
         alt_min_m: 0.0,
         alt_max_m: 500.0,
     }
+}
+
+/// Replans on a prebuilt risk map with the obstacle summaries of the predictor it was built
+/// from (the server's side of the seam), without a deadline.
+pub fn replan_on_map(
+    r: &planner::Replan<'_>,
+    map: &predictor::RiskMap,
+    p: &predictor::Predictor,
+    cfg: &planner::ReplanConfig,
+) -> planner::Replanned {
+    let summaries: Vec<_> = p.obstacles().collect();
+    let dynamic = planner::Dynamic::Map {
+        map,
+        obstacles: &summaries,
+    };
+    planner::replan(r, dynamic, cfg, &planner::Termination::none()).unwrap()
 }

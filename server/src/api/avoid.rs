@@ -4,7 +4,6 @@
 //! Positions are WGS84 degrees; the computation runs in a local ENU frame centred on the
 //! leg's start (`crate::geodesy`), and the answer comes back in degrees.
 
-use axum::extract::State;
 use serde::{Deserialize, Serialize};
 use utoipa::ToSchema;
 use utoipa_axum::{router::OpenApiRouter, routes};
@@ -14,7 +13,7 @@ use planner::insertion::{
 };
 
 use crate::app::AppState;
-use crate::error::{ApiError, FieldError, Problem};
+use crate::error::{ApiError, FieldError};
 use crate::extract::ApiJson;
 use crate::geodesy::LocalFrame;
 use crate::mission::LatLon;
@@ -107,12 +106,8 @@ fn check(errs: &mut Vec<FieldError>, ptr: &str, p: LatLon) {
     request_body(content = InsertRequest, description = "The leg, the obstacle, options", content_type = "application/json"),
     responses(
         (status = 200, description = "The waypoint to insert (or null) and the candidates", body = InsertResponse),
-        (status = 400, description = "Malformed JSON or a field of the wrong type", body = Problem, content_type = "application/problem+json"),
-        (status = 415, description = "Not a JSON body", body = Problem, content_type = "application/problem+json"),
-        (status = 422, description = "Invalid field, named by a JSON pointer", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn insert(
-    State(_state): State<AppState>,
     ApiJson(req): ApiJson<InsertRequest>,
 ) -> Result<axum::Json<InsertResponse>, ApiError> {
     let mut errs = Vec::new();
@@ -151,7 +146,7 @@ async fn insert(
         }
     }
     if !errs.is_empty() {
-        return Err(ApiError::Validation(errs));
+        return Err(ApiError::validation(errs));
     }
     let frame = LocalFrame::new(req.from.lat, req.from.lon);
     let enu = |p: LatLon| frame.to_enu(p.lat, p.lon);

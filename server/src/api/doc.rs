@@ -5,7 +5,8 @@
 //! - every operation lists the statuses the shared extractors can answer, each with the
 //!   problem schema: 400 when it takes a query parameter (unparseable value) or a body
 //!   (malformed JSON), 413/415/422 when it takes a JSON body, 404 when its path names a
-//!   mission;
+//!   mission (or a mission and a plan); an operation states only what it answers beyond
+//!   these, or a more specific description;
 //! - `Mission` is one flat object (openapi-python-client cannot merge the `allOf` of the
 //!   derived schema, whose `home` is optional in the input and required in the output);
 //! - `WireTime` is typed: an RFC 3339 string or Unix seconds;
@@ -136,19 +137,26 @@ fn add_error_statuses(doc: &mut Value) {
                     responses[status] = problem(description);
                 }
             };
-            if has_query {
-                add(
+            match (has_query, has_body) {
+                (true, true) => add(
+                    "400",
+                    "Malformed JSON, a field of the wrong type or a query parameter that could not be parsed; `errors` names it when known",
+                ),
+                (true, false) => add(
                     "400",
                     "A query parameter could not be parsed; `errors` names it",
-                );
+                ),
+                (false, true) => add("400", "Malformed JSON or a field of the wrong type"),
+                (false, false) => {}
             }
             if has_body {
-                add("400", "Malformed JSON or a field of the wrong type");
                 add("413", "Body larger than the limit");
                 add("415", "Not a JSON body");
                 add("422", "Invalid field, named by a JSON pointer");
             }
-            if path.starts_with("/api/v1/missions/{id}") {
+            if path.contains("{plan_id}") {
+                add("404", "No such mission or plan");
+            } else if path.starts_with("/api/v1/missions/{id}") {
                 add("404", "No such mission");
             }
         }
@@ -197,57 +205,75 @@ fn latlon(lat: &str, lon: &str, extra: &[(&str, Value)]) -> Value {
     json!({"type": "object", "required": required, "properties": props})
 }
 
+/// A number in feet MSL (`what` names it).
+fn feet(what: &str) -> Value {
+    json!({"type": "number", "description": format!("{what}, feet MSL")})
+}
+
+/// An interop mission document: an integer `id` and `properties`; extra members are
+/// allowed, as the adapters ignore the parts jink does not use.
+fn interop_mission(title: &str, description: &str, required: &[&str], properties: Value) -> Value {
+    let mut props = Map::new();
+    props.insert("id".into(), json!({"type": "integer"}));
+    props.extend(properties.as_object().cloned().unwrap_or_default());
+    json!({
+        "type": "object",
+        "title": title,
+        "description": description,
+        "required": required,
+        "properties": props,
+        "additionalProperties": true,
+    })
+}
+
+/// An interop fly-zone list (at least one): each zone a boundary of at least 3 `point`s and
+/// a floor and ceiling in feet, under the names `[boundary, floor, ceiling]`.
+fn fly_zones([boundary, floor, ceiling]: [&str; 3], point: Value) -> Value {
+    json!({"type": "array", "minItems": 1, "items": {
+        "type": "object",
+        "required": [boundary, floor, ceiling],
+        "properties": {
+            boundary: {"type": "array", "minItems": 3, "items": point},
+            floor: feet("Floor"),
+            ceiling: feet("Ceiling"),
+        }
+    }})
+}
+
 /// The interop mission schemas and the `oneOf` body of `POST /api/v1/missions`.
 fn describe_mission_formats(doc: &mut Value) {
-    let feet = |what: &str| json!({"type": "number", "description": format!("{what}, feet MSL")});
-    let interop_2018 = json!({
-        "type": "object",
-        "title": "Interop2018Mission",
-        "description": "Format `interop-2018`: an interop server 2017/2018 mission (`GET /api/missions/{id}`), feet.",
-        "required": ["fly_zones", "mission_waypoints"],
-        "properties": {
-            "id": {"type": "integer"},
+    let interop_2018 = interop_mission(
+        "Interop2018Mission",
+        "Format `interop-2018`: an interop server 2017/2018 mission (`GET /api/missions/{id}`), feet.",
+        &["fly_zones", "mission_waypoints"],
+        json!({
             "active": {"type": "boolean"},
             "home_pos": latlon("latitude", "longitude", &[]),
-            "fly_zones": {"type": "array", "minItems": 1, "items": {
-                "type": "object",
-                "required": ["boundary_pts", "altitude_msl_min", "altitude_msl_max"],
-                "properties": {
-                    "boundary_pts": {"type": "array", "minItems": 3, "items": latlon("latitude", "longitude", &[("order", json!({"type": "integer"}))])},
-                    "altitude_msl_min": feet("Floor"),
-                    "altitude_msl_max": feet("Ceiling"),
-                }
-            }},
+            "fly_zones": fly_zones(
+                ["boundary_pts", "altitude_msl_min", "altitude_msl_max"],
+                latlon("latitude", "longitude", &[("order", json!({"type": "integer"}))]),
+            ),
             "mission_waypoints": {"type": "array", "items": latlon("latitude", "longitude", &[
                 ("altitude_msl", feet("Altitude")), ("order", json!({"type": "integer"}))
             ])},
-        },
-        "additionalProperties": true,
-    });
-    let interop_2019 = json!({
-        "type": "object",
-        "title": "Interop2019Mission",
-        "description": "Format `interop-2019`: an interop server 2019+ protobuf-JSON mission (camelCase; snake_case keys are accepted too), feet.",
-        "required": ["id", "flyZones"],
-        "properties": {
-            "id": {"type": "integer"},
-            "flyZones": {"type": "array", "minItems": 1, "items": {
-                "type": "object",
-                "required": ["boundaryPoints", "altitudeMin", "altitudeMax"],
-                "properties": {
-                    "boundaryPoints": {"type": "array", "minItems": 3, "items": latlon("latitude", "longitude", &[])},
-                    "altitudeMin": feet("Floor"),
-                    "altitudeMax": feet("Ceiling"),
-                }
-            }},
+        }),
+    );
+    let interop_2019 = interop_mission(
+        "Interop2019Mission",
+        "Format `interop-2019`: an interop server 2019+ protobuf-JSON mission (camelCase; snake_case keys are accepted too), feet.",
+        &["id", "flyZones"],
+        json!({
+            "flyZones": fly_zones(
+                ["boundaryPoints", "altitudeMin", "altitudeMax"],
+                latlon("latitude", "longitude", &[]),
+            ),
             "waypoints": {"type": "array", "items": latlon("latitude", "longitude", &[("altitude", feet("Altitude"))])},
             "stationaryObstacles": {"type": "array", "items": latlon("latitude", "longitude", &[
                 ("radius", json!({"type": "number", "exclusiveMinimum": 0, "description": "Radius, feet"})),
                 ("height", feet("Top")),
             ])},
-        },
-        "additionalProperties": true,
-    });
+        }),
+    );
     let schemas = &mut doc["components"]["schemas"];
     if !schemas.is_object() {
         return;

@@ -36,9 +36,6 @@ pub struct UploadParams {
     responses(
         (status = 201, description = "Stored; `Location` names the (first) mission", body = Mission,
             headers(("Location" = String, description = "URL of the stored mission"))),
-        (status = 400, description = "Malformed JSON or a field of the wrong type", body = Problem, content_type = "application/problem+json"),
-        (status = 413, description = "Body larger than the limit", body = Problem, content_type = "application/problem+json"),
-        (status = 415, description = "Not a JSON body", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Invalid mission: each offending field named by a JSON pointer", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn create_mission(
@@ -108,7 +105,6 @@ async fn list_missions(
     params(("id" = String, Path, description = "Mission id")),
     responses(
         (status = 200, description = "The mission", body = Mission),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn get_mission(
     State(state): State<AppState>,
@@ -127,7 +123,6 @@ async fn get_mission(
     params(("id" = String, Path, description = "Mission id")),
     responses(
         (status = 204, description = "Deleted"),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn delete_mission(
     State(state): State<AppState>,
@@ -151,6 +146,18 @@ pub async fn load(state: &AppState, id: &MissionId) -> Result<Mission, ApiError>
         .get_mission(id)
         .await?
         .ok_or_else(|| ApiError::not_found("mission", id.as_str()))
+}
+
+/// Answers 404 unless the mission exists (without loading it).
+///
+/// # Errors
+/// 404 when the mission does not exist; 500 on a database failure.
+pub(crate) async fn ensure_exists(state: &AppState, id: &MissionId) -> Result<(), ApiError> {
+    if state.store.mission_exists(id).await? {
+        Ok(())
+    } else {
+        Err(ApiError::not_found("mission", id.as_str()))
+    }
 }
 
 /// Mission routes.

@@ -14,6 +14,7 @@ pub mod health;
 pub mod missions;
 pub mod obstacles;
 pub mod operator;
+pub mod plan_compute;
 pub mod plan_files;
 pub mod plan_record;
 pub mod plan_types;

@@ -13,7 +13,7 @@ use utoipa_axum::{router::OpenApiRouter, routes};
 use predictor::{Stage, StageChange};
 
 use crate::app::AppState;
-use crate::error::{ApiError, Problem};
+use crate::error::ApiError;
 use crate::mission::LatLon;
 use wire::ids::MissionId;
 
@@ -168,7 +168,6 @@ pub struct ObstacleOut {
     params(("id" = String, Path, description = "Mission id")),
     responses(
         (status = 200, description = "Moving obstacles (by id) with stage, estimates, observation count and stage history, then stationary cylinders", body = [ObstacleOut]),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn list_obstacles(
     State(state): State<AppState>,

@@ -29,7 +29,6 @@ use wire::ids::{MissionId, PlanId};
         (status = 303, description = "`format=qgc-wpl` or `qgc-plan`: `Location` names the file download",
             headers(("Location" = String, description = "URL of the file download"))),
         (status = 400, description = "Unknown format", body = Problem, content_type = "application/problem+json"),
-        (status = 404, description = "No such mission or plan", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn get_plan(
     State(state): State<AppState>,
@@ -180,7 +179,6 @@ pub fn plan_file_text(
     responses(
         (status = 200, description = "QGC WPL 110 text: tab-separated, index 0 = home, loadable by QGroundControl and pymavlink",
             body = String, content_type = "text/plain"),
-        (status = 404, description = "No such mission or plan", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn get_plan_wpl(
     State(state): State<AppState>,
@@ -196,7 +194,6 @@ async fn get_plan_wpl(
     responses(
         (status = 200, description = "A QGroundControl `.plan` JSON document (`fileType: Plan`)",
             body = Object, content_type = "application/json"),
-        (status = 404, description = "No such mission or plan", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn get_plan_qgc(
     State(state): State<AppState>,

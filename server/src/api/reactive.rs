@@ -41,7 +41,7 @@ fn check_magnitudes<'a>(
     if errs.is_empty() {
         Ok(())
     } else {
-        Err(ApiError::Validation(errs))
+        Err(ApiError::validation(errs))
     }
 }
 
@@ -178,8 +178,6 @@ fn offset_error(e: &OffsetError) -> ApiError {
     request_body(content = OffsetRequest, description = "A sweep and the algorithm's parameters", content_type = "application/json"),
     responses(
         (status = 200, description = "The decision; `direction` is null when no path was found", body = OffsetResponse),
-        (status = 400, description = "Malformed JSON or a field of the wrong type", body = Problem, content_type = "application/problem+json"),
-        (status = 415, description = "Not JSON", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Invalid input (empty scan, negative radius, window 0, ...), the field named", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn offset(
@@ -344,8 +342,6 @@ fn point(p: planner::reactive::PathPoint) -> PointOut {
     request_body(content = PilotRequest, description = "Deviation, ranges and optional heuristics", content_type = "application/json"),
     responses(
         (status = 200, description = "The sampled path (x lateral, left positive; y forward)", body = PilotResponse),
-        (status = 400, description = "Malformed JSON or a field of the wrong type", body = Problem, content_type = "application/problem+json"),
-        (status = 415, description = "Not JSON", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Invalid input or heuristic, the field named", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn pilot(ApiJson(req): ApiJson<PilotRequest>) -> Result<axum::Json<PilotResponse>, ApiError> {
@@ -474,8 +470,6 @@ fn sector_error(e: &SectorError) -> ApiError {
     request_body(content = SectorsRequest, description = "A 360-degree sweep and optional parameters", content_type = "application/json"),
     responses(
         (status = 200, description = "Obstacle flag, chosen region and velocity command", body = SectorsResponse),
-        (status = 400, description = "Malformed JSON or a field of the wrong type", body = Problem, content_type = "application/problem+json"),
-        (status = 415, description = "Not JSON", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Invalid input (empty ranges, bad threshold, ...), the field named", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn sectors(

@@ -184,8 +184,6 @@ async fn with_slice<T: Send + 'static>(
         (status = 200, description = "The slice as a JSON grid", body = RiskSliceOut),
         (status = 303, description = "`format=png`: `Location` names the PNG of the same slice",
             headers(("Location" = String, description = "URL of the PNG"))),
-        (status = 400, description = "Malformed query", body = Problem, content_type = "application/problem+json"),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "t out of range", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn get_risk(
@@ -241,8 +239,6 @@ async fn get_risk(
     params(("id" = String, Path, description = "Mission id"), RiskPngParams),
     responses(
         (status = 200, description = "The slice as a PNG heatmap", body = Vec<u8>, content_type = "image/png"),
-        (status = 400, description = "Malformed query", body = Problem, content_type = "application/problem+json"),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "t out of range", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn get_risk_png(

@@ -94,9 +94,7 @@ pub(crate) struct SearchPatternOut {
     request_body(content = SearchPatternBody, description = "Pattern options (all optional)", content_type = "application/json"),
     responses(
         (status = 200, description = "The pattern's waypoints in flight order", body = SearchPatternOut),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
         (status = 409, description = "The mission has no search area (fewer than 3 `search_grid` points)", body = Problem, content_type = "application/problem+json"),
-        (status = 422, description = "Invalid field, named by a JSON pointer", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn search_pattern(
     State(state): State<AppState>,
@@ -125,7 +123,7 @@ async fn search_pattern(
         check("/alt_msl_m", alt, (-1_000.0, 100_000.0));
     }
     if !errs.is_empty() {
-        return Err(ApiError::Validation(errs));
+        return Err(ApiError::validation(errs));
     }
     let mission = super::missions::load(&state, &id).await?;
     let grid = &mission.content.search_grid;

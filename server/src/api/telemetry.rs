@@ -60,9 +60,6 @@ pub(crate) struct SnapshotParams {
     request_body(content = ObservationBatch, description = "Native batch, or an interop 2017/2018 obstacle snapshot", content_type = "application/json"),
     responses(
         (status = 202, description = "Stored; counts of new and duplicate observations", body = IngestResult),
-        (status = 400, description = "Malformed body", body = Problem, content_type = "application/problem+json"),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
-        (status = 415, description = "Not JSON", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Invalid observation, the field named", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn post_obstacles(
@@ -102,16 +99,13 @@ pub(crate) struct ObservationQuery {
     params(("id" = String, Path, description = "Mission id"), ObservationQuery),
     responses(
         (status = 200, description = "Observations ordered by time, then obstacle id", body = [ObservationOut]),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn list_observations(
     State(state): State<AppState>,
     Path(id): Path<MissionId>,
     ApiQuery(q): ApiQuery<ObservationQuery>,
 ) -> Result<axum::Json<Vec<ObservationOut>>, ApiError> {
-    if !state.store.mission_exists(&id).await? {
-        return Err(ApiError::not_found("mission", id));
-    }
+    super::missions::ensure_exists(&state, &id).await?;
     let rows = state
         .store
         .list_observations(&id, q.obstacle_id.as_deref(), q.after.map(|t| t.0))
@@ -130,8 +124,6 @@ async fn list_observations(
     request_body(content = AircraftTelemetry, description = "Native or interop 2019 JSON, or interop 2018 form-encoded", content_type = "application/json"),
     responses(
         (status = 202, description = "Stored", body = IngestResult),
-        (status = 400, description = "Malformed body", body = Problem, content_type = "application/problem+json"),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
         (status = 415, description = "Neither JSON nor form-encoded", body = Problem, content_type = "application/problem+json"),
         (status = 422, description = "Invalid sample, the field named", body = Problem, content_type = "application/problem+json"),
     ))]
@@ -173,16 +165,13 @@ pub(crate) struct TelemetryQuery {
     params(("id" = String, Path, description = "Mission id"), TelemetryQuery),
     responses(
         (status = 200, description = "Samples ordered by time", body = [AircraftTelemetryOut]),
-        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn list_telemetry(
     State(state): State<AppState>,
     Path(id): Path<MissionId>,
     ApiQuery(q): ApiQuery<TelemetryQuery>,
 ) -> Result<axum::Json<Vec<AircraftTelemetryOut>>, ApiError> {
-    if !state.store.mission_exists(&id).await? {
-        return Err(ApiError::not_found("mission", id));
-    }
+    super::missions::ensure_exists(&state, &id).await?;
     let rows = state.store.list_telemetry(&id, q.last).await?;
     Ok(axum::Json(
         rows.iter().map(AircraftTelemetryOut::from).collect(),

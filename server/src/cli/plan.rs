@@ -14,10 +14,12 @@ use std::process::ExitCode;
 
 use clap::Args;
 
+use crate::api::plan_compute::{
+    compute, new_seed, plan_out, snapshot_from_observations, stack_start,
+};
 use crate::api::plan_files::plan_file_text;
 use crate::api::plans::{
-    ObservationUsed, PlanFormat, PlanInputs, StartOut, StartSource, StrategyIn, compute, new_seed,
-    plan_out, stack_start,
+    ObservationUsed, PlanFormat, PlanInputs, StartOut, StartSource, StrategyIn,
 };
 use crate::mission::Mission;
 
@@ -202,12 +204,20 @@ pub fn run(args: PlanArgs) -> ExitCode {
         observation_window: None,
         observation_seq: None,
     };
-    let snap = crate::api::plans::snapshot_from_observations(&m, &inputs.observations);
-    let computed = match compute(&m, &inputs, &snap) {
+    let snap = snapshot_from_observations(&m, &inputs.observations);
+    let computed = match compute(&m, &inputs, &snap, None) {
         Ok(c) => c,
         Err(e) => return fail(e),
     };
-    let out = plan_out(&m.id, "offline".into(), 1, 0, &inputs, &computed, t0);
+    let out = plan_out(
+        &m.id,
+        &"offline".to_string().into(),
+        1,
+        0,
+        &inputs,
+        &computed,
+        t0,
+    );
     let (text, _, _) = plan_file_text(&m, &out, format);
     match &args.out {
         None => {

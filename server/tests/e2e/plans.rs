@@ -98,9 +98,7 @@ fn webster_waypoints() -> Vec<Value> {
 }
 
 async fn webster_with_traffic(app: &App) -> String {
-    let id = app
-        .create_mission(&fixture("mission_2021_webster_field.json"))
-        .await;
+    let id = app.create_webster_mission().await;
     // Aircraft at waypoint 0 (38.14469, -76.42799, 200 ft), heading to waypoint 1.
     let r = app
         .post_json(
@@ -119,13 +117,7 @@ async fn webster_with_traffic(app: &App) -> String {
                         "alt_msl_m": 60.0, "radius_m": OBSTACLE_0_RADIUS_M}));
         obs.push(json!({"obstacle_id": "1", "t": t, "lat": 38.149, "lon": -76.430, "alt_msl_m": 80.0, "radius_m": 15.0}));
     }
-    let r = app
-        .post_json(
-            &format!("/api/v1/missions/{id}/obstacles"),
-            &json!({"observations": obs}),
-        )
-        .await;
-    assert_eq!(r.status(), 202);
+    app.post_observations(&id, json!(obs)).await;
     id
 }
 
@@ -228,15 +220,7 @@ async fn a_plan_downloads_as_json_qgc_wpl_and_qgc_plan(app: App) {
     assert_eq!(app.get_json(&base).await, p);
     assert_eq!(app.get_json(&format!("{base}?format=json")).await, p);
 
-    let r = app.get(&format!("{base}/qgc-wpl")).await;
-    assert_eq!(r.status(), 200);
-    assert!(
-        r.headers()["content-type"]
-            .to_str()
-            .unwrap()
-            .starts_with("text/plain")
-    );
-    let text = r.text().await.unwrap();
+    let text = app.get_text(&format!("{base}/qgc-wpl"), "text/plain").await;
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines[0], "QGC WPL 110");
     assert_eq!(lines.len(), 2 + p["waypoints"].as_array().unwrap().len());
@@ -298,40 +282,31 @@ async fn the_same_seed_replays_the_same_plan(app: App) {
 }
 
 async fn insert_waypoint_answers_the_seed_004_example(app: App) {
-    // A 1 km east-west leg at 38 N with an obstacle of radius 40 m 10 m north of its middle:
-    // the chosen waypoint is south of the leg (the shorter detour), on the r + 2b = 56 m
-    // circle: 46 m south of the leg, so the latitude drops by ~46 / 111000 deg.
-    let r = app
-        .post_json(
-            "/api/v1/avoid/insert-waypoint",
-            &json!({"from": {"lat": 38.0, "lon": -76.0}, "to": {"lat": 38.0, "lon": -75.98865},
-                    "obstacle": {"lat": 38.00009, "lon": -75.994325, "radius_m": 40.0}}),
-        )
+    const PATH: &str = "/api/v1/avoid/insert-waypoint";
+    // A leg east along 38 N from 76 W to longitude `to_lon`, and an obstacle `(lat, lon, r)`.
+    let leg = |to_lon: f64, (lat, lon, radius_m): (f64, f64, f64)| {
+        json!({"from": {"lat": 38.0, "lon": -76.0}, "to": {"lat": 38.0, "lon": to_lon},
+               "obstacle": {"lat": lat, "lon": lon, "radius_m": radius_m}})
+    };
+    // A 1 km leg with an obstacle of radius 40 m 10 m north of its middle: the chosen
+    // waypoint is south of the leg (the shorter detour), on the r + 2b = 56 m circle: 46 m
+    // south of the leg, so the latitude drops by ~46 / 111000 deg.
+    let v = app
+        .post_ok(PATH, &leg(-75.98865, (38.00009, -75.994325, 40.0)))
         .await;
-    assert_eq!(r.status(), 200);
-    let v: Value = r.json().await.unwrap();
     assert_eq!(v["outcome"], "inserted", "{v}");
     assert_eq!(v["candidates"].as_array().unwrap().len(), 2);
     let lat = v["waypoint"]["lat"].as_f64().unwrap();
     assert!(lat < 38.0, "{v}");
     assert!((lat - 38.0 + 46.0 / 111_000.0).abs() < 0.00003, "{lat}");
     // A leg far from the obstacle needs nothing.
-    let r = app
-        .post_json(
-            "/api/v1/avoid/insert-waypoint",
-            &json!({"from": {"lat": 38.0, "lon": -76.0}, "to": {"lat": 38.0, "lon": -75.99},
-                    "obstacle": {"lat": 38.01, "lon": -75.995, "radius_m": 40.0}}),
-        )
+    let v = app
+        .post_ok(PATH, &leg(-75.99, (38.01, -75.995, 40.0)))
         .await;
-    let v: Value = r.json().await.unwrap();
     assert_eq!(v["outcome"], "not_needed");
     assert!(v["waypoint"].is_null());
     let r = app
-        .post_json(
-            "/api/v1/avoid/insert-waypoint",
-            &json!({"from": {"lat": 38.0, "lon": -76.0}, "to": {"lat": 38.0, "lon": -75.99},
-                    "obstacle": {"lat": 38.0, "lon": -75.995, "radius_m": -1.0}}),
-        )
+        .post_json(PATH, &leg(-75.99, (38.0, -75.995, -1.0)))
         .await;
     assert_eq!(
         pointers(&problem(r, 422).await),
@@ -406,13 +381,7 @@ async fn a_stored_plan_replays_identically_even_after_more_telemetry(app: App) {
                         "lon": -76.4262, "alt_msl_m": 60.0, "radius_m": 30.0})
         })
         .collect();
-    let r = app
-        .post_json(
-            &format!("/api/v1/missions/{id}/obstacles"),
-            &json!({"observations": late}),
-        )
-        .await;
-    assert_eq!(r.status(), 202);
+    app.post_observations(&id, json!(late)).await;
     let v: Value = app
         .client
         .post(app.url(&replay_path))
@@ -441,11 +410,9 @@ async fn the_search_area_ladder_covers_the_search_grid_with_validated_parameters
     let m = fixture("mission_2021_webster_field.json");
     let id = app.create_mission(&m).await;
     let path = format!("/api/v1/missions/{id}/search-pattern");
-    let r = app
-        .post_json(&path, &json!({"spacing_m": 100.0, "heading_deg": 90.0}))
+    let v = app
+        .post_ok(&path, &json!({"spacing_m": 100.0, "heading_deg": 90.0}))
         .await;
-    assert_eq!(r.status(), 200);
-    let v: Value = r.json().await.unwrap();
     let lines = v["lines"].as_u64().unwrap();
     let wps = v["waypoints"].as_array().unwrap();
     assert!(lines >= 2, "{v}");

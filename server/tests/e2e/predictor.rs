@@ -5,7 +5,7 @@
 use serde_json::{Value, json};
 
 use crate::both_stores;
-use crate::support::{App, fixture};
+use crate::support::{App, by_id};
 
 both_stores!(a_straight_track_is_characterized_mapped_and_survives_a_restart);
 
@@ -42,21 +42,13 @@ fn pixel(img: &(u32, u32, Vec<u8>), x: u32, y: u32) -> [u8; 3] {
     [img.2[i], img.2[i + 1], img.2[i + 2]]
 }
 
-async fn moving_after(app: &App, path: &str) -> Value {
-    app.get_json(path)
-        .await
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|o| o["id"] == "7")
-        .unwrap()
-        .clone()
+/// Obstacle 7 as `GET path` lists it now.
+async fn obstacle_7(app: &App, path: &str) -> Value {
+    by_id(&app.get_json(path).await, "7")
 }
 
 async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app: App) {
-    let id = app
-        .create_mission(&fixture("mission_2021_webster_field.json"))
-        .await;
+    let id = app.create_webster_mission().await;
     let path = format!("/api/v1/missions/{id}/obstacles");
     // 70 s of telemetry in 7 batches.
     for b in 0..7 {
@@ -67,10 +59,7 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
     }
     let obstacles = app.get_json(&path).await;
     let list = obstacles.as_array().unwrap();
-    let moving = list
-        .iter()
-        .find(|o| o["id"] == "7")
-        .expect("obstacle 7 listed");
+    let moving = &by_id(&obstacles, "7");
     assert_eq!(moving["kind"], "moving");
     assert_eq!(moving["stage"], "advanced", "{moving}");
     assert_eq!(moving["observation_count"], 700);
@@ -98,14 +87,7 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
     // New observations reach the cached predictor.
     let r = app.post_json(&path, &straight(700, 710)).await;
     assert_eq!(r.status(), 202);
-    let after = app.get_json(&path).await;
-    let moving = after
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|o| o["id"] == "7")
-        .unwrap()
-        .clone();
+    let moving = obstacle_7(&app, &path).await;
     assert_eq!(moving["observation_count"], 710);
 
     // Risk as JSON: certain at the obstacle now, spread ahead of it later.
@@ -153,7 +135,7 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
         slice["frame_origin"]["lat"].as_f64().unwrap(),
         slice["frame_origin"]["lon"].as_f64().unwrap(),
     );
-    let pos = &moving_after(&app, &path).await["estimates"]["position"];
+    let pos = &obstacle_7(&app, &path).await["estimates"]["position"];
     let p = frame.to_enu(pos["lat"].as_f64().unwrap(), pos["lon"].as_f64().unwrap());
     let px_per_m = f64::from(scale) / slice["cell_m"].as_f64().unwrap();
     let gx = (p[0] - slice["grid_origin_enu_m"][0].as_f64().unwrap()) * px_per_m;
@@ -205,14 +187,7 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
 
     // Restart: the characterization is rebuilt from the stored observations.
     app.kill9_and_restart();
-    let again = app.get_json(&path).await;
-    let restarted = again
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|o| o["id"] == "7")
-        .unwrap()
-        .clone();
+    let restarted = obstacle_7(&app, &path).await;
     assert_eq!(restarted["stage"], moving["stage"]);
     assert_eq!(restarted["observation_count"], 710);
     assert_eq!(restarted["stage_history"], moving["stage_history"]);

@@ -3,7 +3,7 @@
 
 use serde_json::{Value, json};
 
-use crate::support::{App, Db, pointers, problem};
+use crate::support::{App, Db, pointers, problem, problem_about};
 
 /// 11 beams at -50..50 degrees (10 apart); `blocked` lists (index, distance).
 fn eleven(blocked: &[(usize, f64)]) -> Value {
@@ -22,14 +22,12 @@ async fn the_offset_route_decides_like_the_hand_computed_cases() {
     // beam 4 (-10 deg) 0.5 m away, radii [1, 2, 4]: the right window (beams 2..5) scores
     // 25 in every frame, the left window (0..30 deg) is clear -> left at cycle 0, window
     // centre 15 deg, deviation 4 sin 15 deg = 1.0353 m
-    let r = app
-        .post_json(
+    let v = app
+        .post_ok(
             "/api/v1/reactive/offset",
             &json!({"scan": eleven(&[(4, 0.5)]), "scan_radii_m": [4, 1, 2]}),
         )
         .await;
-    assert_eq!(r.status(), 200);
-    let v: Value = r.json().await.unwrap();
     assert_eq!(v["direction"], "left", "{v}");
     assert_eq!(v["cycle"], 0);
     assert_eq!(v["aggregate_left"], 0.0);
@@ -44,27 +42,19 @@ async fn the_offset_route_decides_like_the_hand_computed_cases() {
     assert_eq!(v["window"]["centre_deg"], 15.0);
 
     // all clear (null = no return): first-cycle tie -> left, no deviation
-    let v: Value = app
-        .post_json(
+    let v = app
+        .post_ok(
             "/api/v1/reactive/offset",
             &json!({"scan": eleven(&[]), "scan_radii_m": [1.0]}),
         )
-        .await
-        .json()
-        .await
-        .unwrap();
+        .await;
     assert_eq!(v["direction"], "left");
     assert_eq!(v["way_ahead_clear"], true);
     assert_eq!(v["deviation_m"], 0.0);
 
     // everything 0.5 m away: no path -> direction null, 3 cycles evaluated
     let all: Vec<(usize, f64)> = (0..11).map(|i| (i, 0.5)).collect();
-    let v: Value = app
-        .post_json("/api/v1/reactive/offset", &json!({"scan": eleven(&all), "scan_radii_m": [1.0, 2.0], "window": 4, "threshold": 5.0, "fov_deg": 120}))
-        .await
-        .json()
-        .await
-        .unwrap();
+    let v = app.post_ok("/api/v1/reactive/offset", &json!({"scan": eleven(&all), "scan_radii_m": [1.0, 2.0], "window": 4, "threshold": 5.0, "fov_deg": 120})).await;
     assert!(v["direction"].is_null(), "{v}");
     assert_eq!(v["cycles_evaluated"], 3);
     assert!(v["window"].is_null());
@@ -91,13 +81,13 @@ async fn invalid_reactive_requests_are_422_naming_the_field() {
     )
     .await;
     assert_eq!(pointers(&p), vec!["/window"]);
-    let p = problem(
+    let p = problem_about(
         post(json!({"scan": eleven(&[]), "scan_radii_m": [1.0], "window": 9})).await,
         422,
+        "beams",
     )
     .await;
     assert_eq!(pointers(&p), vec!["/scan"]);
-    assert!(p["detail"].as_str().unwrap().contains("beams"), "{p}");
     // a string where a number belongs: 400 naming the field
     let p = problem(
         post(json!({"scan": [{"angle_deg": "left", "distance_m": 1.0}], "scan_radii_m": [1.0]}))
@@ -140,14 +130,7 @@ async fn invalid_reactive_requests_are_422_naming_the_field() {
 async fn the_pilot_route_returns_the_bezier_path() {
     let app = App::spawn(Db::Sqlite).await.unwrap();
     // d = 3, l = 5, goal 50: g = 30, P2 = (0, 50); 4 samples per segment -> 9 points
-    let r = app
-        .post_json(
-            "/api/v1/reactive/pilot",
-            &json!({"deviation_m": 3.0, "scan_range_m": 5.0, "goal_distance_m": 50.0, "samples_per_segment": 4}),
-        )
-        .await;
-    assert_eq!(r.status(), 200);
-    let v: Value = r.json().await.unwrap();
+    let v = app.post_ok("/api/v1/reactive/pilot", &json!({"deviation_m": 3.0, "scan_range_m": 5.0, "goal_distance_m": 50.0, "samples_per_segment": 4})).await;
     let pts = v["points"].as_array().unwrap();
     assert_eq!(pts.len(), 9);
     assert_eq!(pts[0], json!({"x_m": 0.0, "y_m": 0.0}));
@@ -159,15 +142,12 @@ async fn the_pilot_route_returns_the_bezier_path() {
     assert!(v["limited_by"].is_null());
 
     // the funnel limits a large deviation near the goal: |d| <= 0.5 * 10
-    let v: Value = app
-        .post_json(
+    let v = app
+        .post_ok(
             "/api/v1/reactive/pilot",
             &json!({"deviation_m": -20.0, "scan_range_m": 5.0, "goal_distance_m": 10.0}),
         )
-        .await
-        .json()
-        .await
-        .unwrap();
+        .await;
     assert_eq!(v["deviation_m"], -5.0);
     assert_eq!(v["limited_by"], "goal_funnel");
 }
@@ -176,15 +156,12 @@ async fn the_pilot_route_returns_the_bezier_path() {
 async fn the_sectors_route_turns_away_from_a_blocked_front() {
     let app = App::spawn(Db::Sqlite).await.unwrap();
     // 8 beams, 45 degrees apart from straight ahead: the front beam at 0.4 m, the rest none
-    let v: Value = app
-        .post_json(
+    let v = app
+        .post_ok(
             "/api/v1/reactive/sectors",
             &json!({"ranges_m": [0.4, null, null, null, null, null, null, null]}),
         )
-        .await
-        .json()
-        .await
-        .unwrap();
+        .await;
     assert_eq!(v["obstacle_detected"], true, "{v}");
     assert_eq!(v["region"], 1);
     assert_eq!(v["angular_velocity"], 0.7);
@@ -193,28 +170,22 @@ async fn the_sectors_route_turns_away_from_a_blocked_front() {
     assert_eq!(v["regions"][0]["free"], false);
 
     // all blocked, the right (index 6 = 270 deg) farthest -> region 6, turn clockwise
-    let v: Value = app
-        .post_json(
+    let v = app
+        .post_ok(
             "/api/v1/reactive/sectors",
             &json!({"ranges_m": [0.3, 0.3, 0.3, 0.3, 0.3, 0.3, 0.9, 0.3]}),
         )
-        .await
-        .json()
-        .await
-        .unwrap();
+        .await;
     assert_eq!(v["region"], 6);
     assert_eq!(v["angular_velocity"], -0.7);
 
     // clear: cruise
-    let v: Value = app
-        .post_json(
+    let v = app
+        .post_ok(
             "/api/v1/reactive/sectors",
             &json!({"ranges_m": [5.0, 5.0, 5.0, 5.0]}),
         )
-        .await
-        .json()
-        .await
-        .unwrap();
+        .await;
     assert_eq!(v["obstacle_detected"], false);
     assert_eq!(v["linear_velocity"], 0.5);
 }

@@ -24,15 +24,7 @@ async fn metrics_count_requests_per_route_in_prometheus_text() {
     let id = app.create_mission(&fixture("mission_2019.json")).await;
     app.get_json(&format!("/api/v1/missions/{id}")).await;
     app.get_json(&format!("/api/v1/missions/{id}")).await;
-    let r = app.get("/metrics").await;
-    assert_eq!(r.status(), 200);
-    assert!(
-        r.headers()["content-type"]
-            .to_str()
-            .unwrap()
-            .starts_with("text/plain")
-    );
-    let text = r.text().await.unwrap();
+    let text = app.get_text("/metrics", "text/plain").await;
     assert!(
         text.contains("# TYPE jink_http_requests_total counter"),
         "{text}"

@@ -202,6 +202,49 @@ impl App {
         r.json().await.unwrap()
     }
 
+    /// GETs `path`: asserts 200 and a media type starting with `media`; returns the body.
+    pub async fn get_text(&self, path: &str, media: &str) -> String {
+        let r = self.get(path).await;
+        assert_eq!(r.status(), 200, "GET {path}");
+        let ct = r.headers()["content-type"].to_str().unwrap().to_string();
+        assert!(ct.starts_with(media), "GET {path}: {ct}");
+        r.text().await.unwrap()
+    }
+
+    /// Posts a native observation batch `{"observations": observations}` to mission `id`;
+    /// asserts 202 and returns the counts.
+    pub async fn post_observations(&self, id: &str, observations: Value) -> Value {
+        let path = format!("/api/v1/missions/{id}/obstacles");
+        let r = self
+            .post_json(&path, &serde_json::json!({ "observations": observations }))
+            .await;
+        assert_eq!(r.status(), 202, "POST {path}");
+        r.json().await.unwrap()
+    }
+
+    /// Posts interop 2018 form-encoded aircraft telemetry (no time: stamped on receipt) to
+    /// mission `id`; asserts 202.
+    pub async fn post_telemetry_form(&self, id: &str, form: &'static str) {
+        let path = format!("/api/v1/missions/{id}/telemetry");
+        let r = self
+            .post_raw(&path, "application/x-www-form-urlencoded", form)
+            .await;
+        assert_eq!(r.status(), 202, "POST {path}");
+    }
+
+    /// POSTs JSON `body` to `path`: asserts 200 and returns the answer.
+    pub async fn post_ok(&self, path: &str, body: &Value) -> Value {
+        let r = self.post_json(path, body).await;
+        assert_eq!(r.status(), 200, "POST {path}");
+        r.json().await.unwrap()
+    }
+
+    /// Uploads the Webster Field mission (interop 2019+ fixture) and returns its id.
+    pub async fn create_webster_mission(&self) -> String {
+        self.create_mission(&fixture("mission_2021_webster_field.json"))
+            .await
+    }
+
     /// Uploads a mission and returns its id.
     pub async fn create_mission(&self, body: &Value) -> String {
         let r = self.post_json("/api/v1/missions", body).await;
@@ -265,6 +308,62 @@ pub async fn problem(r: reqwest::Response, status: u16) -> Value {
     let v: Value = serde_json::from_str(&body).unwrap();
     assert_eq!(v["status"].as_u64(), Some(u64::from(status)), "{v}");
     v
+}
+
+/// The `(accepted, duplicate)` counts of an ingest answer, which must be a 202.
+pub async fn ingest_counts(r: reqwest::Response) -> (u64, u64) {
+    assert_eq!(r.status(), 202);
+    let v: Value = r.json().await.unwrap();
+    let count = |k: &str| v[k].as_u64().unwrap_or_else(|| panic!("no {k} in {v}"));
+    (count("accepted"), count("duplicate"))
+}
+
+/// The number at JSON `pointer` in `v` (e.g. `/waypoints/0/alt_msl_m`).
+pub fn num(v: &Value, pointer: &str) -> f64 {
+    v.pointer(pointer)
+        .and_then(Value::as_f64)
+        .unwrap_or_else(|| panic!("no number at {pointer} in {v}"))
+}
+
+/// The `code` of each warning of a plan, in order.
+pub fn warning_codes(plan: &Value) -> Vec<String> {
+    plan["warnings"]
+        .as_array()
+        .unwrap_or_else(|| panic!("no warnings in {plan}"))
+        .iter()
+        .map(|w| w["code"].as_str().unwrap().to_string())
+        .collect()
+}
+
+/// The number `key` of each element of a JSON list, in order.
+pub fn nums(list: &Value, key: &str) -> Vec<f64> {
+    list.as_array()
+        .unwrap_or_else(|| panic!("not a list: {list}"))
+        .iter()
+        .map(|o| {
+            o[key]
+                .as_f64()
+                .unwrap_or_else(|| panic!("no number {key} in {o}"))
+        })
+        .collect()
+}
+
+/// The element of a JSON list whose `id` is `id`.
+pub fn by_id(list: &Value, id: &str) -> Value {
+    list.as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["id"] == id)
+        .unwrap_or_else(|| panic!("no id {id} in {list}"))
+        .clone()
+}
+
+/// A problem+json answer (as [`problem`]) whose detail mentions `mention`.
+pub async fn problem_about(r: reqwest::Response, status: u16, mention: &str) -> Value {
+    let p = problem(r, status).await;
+    let detail = p["detail"].as_str().unwrap_or_default();
+    assert!(detail.contains(mention), "{mention:?} not in {p}");
+    p
 }
 
 /// The pointers named by a problem document.

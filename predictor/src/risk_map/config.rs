@@ -1,0 +1,113 @@
+//! Risk-map parameters ([`RiskMapConfig`], a builder with documented defaults) and the
+//! error for invalid ones.
+
+/// Risk-map parameters, with documented defaults.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default))]
+pub struct RiskMapConfig {
+    /// South-west corner of the grid, ENU metres. Default `[-1000, -1000]`.
+    pub min_m: [f64; 2],
+    /// North-east corner of the grid, ENU metres. Default `[1000, 1000]`.
+    pub max_m: [f64; 2],
+    /// Cell size of the finest slices, metres. Default 5 (about half the smallest 30 ft
+    /// sphere radius).
+    pub cell_m: f64,
+    /// Slices at most this long after slice 0 use `cell_m` cells, seconds. Default 15.
+    pub fine_horizon_s: f64,
+    /// Later slices at most this long after slice 0 use `cell_m * coarse_factor` cells;
+    /// slices beyond it `cell_m * coarse_factor^2`, seconds. Default 40.
+    pub coarse_horizon_s: f64,
+    /// Ratio between the cell sizes of consecutive resolutions (1 = `cell_m` everywhere).
+    /// Default 2: 5 m cells up to 15 s, 10 m up to 40 s, 20 m beyond.
+    pub coarse_factor: u32,
+    /// Time between slices, seconds. Default 1.
+    pub dt_s: f64,
+    /// Horizon, seconds: slices at `0, dt, .., horizon`. Default 60.
+    pub horizon_s: f64,
+    /// Safety buffer added to every obstacle radius, metres. Default 5.
+    pub buffer_m: f64,
+    /// Particles per obstacle. Default 256.
+    pub particles: usize,
+    /// Seed of the particles. Default 0.
+    pub seed: u64,
+}
+
+impl Default for RiskMapConfig {
+    fn default() -> Self {
+        Self {
+            min_m: [-1000.0, -1000.0],
+            max_m: [1000.0, 1000.0],
+            cell_m: 5.0,
+            fine_horizon_s: 15.0,
+            coarse_horizon_s: 40.0,
+            coarse_factor: 2,
+            dt_s: 1.0,
+            horizon_s: 60.0,
+            buffer_m: 5.0,
+            particles: 256,
+            seed: 0,
+        }
+    }
+}
+
+impl RiskMapConfig {
+    /// Sets the grid bounds.
+    pub fn bounds(mut self, min_m: [f64; 2], max_m: [f64; 2]) -> Self {
+        self.min_m = min_m;
+        self.max_m = max_m;
+        self
+    }
+    /// Sets the cell size.
+    pub fn cell_m(mut self, cell_m: f64) -> Self {
+        self.cell_m = cell_m;
+        self
+    }
+    /// Sets the resolution schedule: `cell_m` cells up to `fine_horizon_s` after slice 0,
+    /// `cell_m * coarse_factor` up to `coarse_horizon_s`, `cell_m * coarse_factor^2`
+    /// beyond. `resolution(f64::INFINITY, f64::INFINITY, 1)` keeps `cell_m` everywhere.
+    pub fn resolution(
+        mut self,
+        fine_horizon_s: f64,
+        coarse_horizon_s: f64,
+        coarse_factor: u32,
+    ) -> Self {
+        self.fine_horizon_s = fine_horizon_s;
+        self.coarse_horizon_s = coarse_horizon_s;
+        self.coarse_factor = coarse_factor;
+        self
+    }
+    /// Sets the slice spacing and horizon.
+    pub fn time(mut self, dt_s: f64, horizon_s: f64) -> Self {
+        self.dt_s = dt_s;
+        self.horizon_s = horizon_s;
+        self
+    }
+    /// Sets the safety buffer.
+    pub fn buffer_m(mut self, buffer_m: f64) -> Self {
+        self.buffer_m = buffer_m;
+        self
+    }
+    /// Sets the particle count.
+    pub fn particles(mut self, n: usize) -> Self {
+        self.particles = n;
+        self
+    }
+    /// Sets the seed.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+}
+
+/// Invalid risk-map parameters.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum RiskMapError {
+    /// A size parameter is not positive and finite; fix the named field.
+    #[error("{0} must be positive and finite")]
+    NotPositive(&'static str),
+    /// The grid would be larger than 2^31 cells in total; use a larger cell or smaller area.
+    #[error("grid too large: {0} cells")]
+    TooLarge(u64),
+}

@@ -1,0 +1,143 @@
+//! Reading the map: `risk(point, t)` (the worse of the two bracketing slices), whole
+//! slices for rendering, and the conservative segment bound the planner prunes with.
+
+use super::RiskMap;
+use super::SliceView;
+use crate::field::RiskField;
+use geom::dist_point_segment;
+
+impl RiskMap {
+    #[inline]
+    fn disc_risk(&self, p_m: [f64; 2], k: usize) -> f64 {
+        let tk = self.slice_time(k);
+        for d in &self.discs {
+            let r = d.r0_m + d.growth_mps * (tk - d.t_ref_s).max(0.0);
+            let (dx, dy) = (p_m[0] - d.c[0], p_m[1] - d.c[1]);
+            if dx * dx + dy * dy <= r * r {
+                return 1.0;
+            }
+        }
+        0.0
+    }
+
+    /// The slice nearest `t_s`, for rendering.
+    pub fn slice(&self, t_s: f64) -> SliceView {
+        let k = self.slice_index(t_s);
+        let g = self.geo[k];
+        let mut data: Vec<f32> = self.q[g.off..g.off + g.nx * g.ny]
+            .iter()
+            .map(|&q| (1.0 - q).clamp(0.0, 1.0))
+            .collect();
+        if !self.discs.is_empty() {
+            let cm = g.cell_m;
+            for iy in 0..g.ny {
+                for ix in 0..g.nx {
+                    let p = [
+                        self.cfg.min_m[0] + (ix as f64 + 0.5) * cm,
+                        self.cfg.min_m[1] + (iy as f64 + 0.5) * cm,
+                    ];
+                    if self.disc_risk(p, k) > 0.0 {
+                        data[iy * g.nx + ix] = 1.0;
+                    }
+                }
+            }
+        }
+        SliceView {
+            t_s: self.slice_time(k),
+            origin_m: self.cfg.min_m,
+            cell_m: g.cell_m,
+            width: g.nx,
+            height: g.ny,
+            data,
+        }
+    }
+
+    /// Risk of slice `k` at `p_m` (grid and NoFly discs).
+    #[inline]
+    fn slice_risk(&self, p_m: [f64; 2], k: usize) -> f64 {
+        let g = &self.geo[k];
+        let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
+        let fy = (p_m[1] - self.cfg.min_m[1]) * g.inv_cell;
+        let mut r = 0.0;
+        if fx >= 0.0 && fy >= 0.0 {
+            let (ix, iy) = (fx as usize, fy as usize);
+            if ix < g.nx && iy < g.ny {
+                r = 1.0 - f64::from(self.q[g.off + iy * g.nx + ix]);
+            }
+        }
+        if !self.discs.is_empty() && r < 1.0 {
+            r = r.max(self.disc_risk(p_m, k));
+        }
+        r
+    }
+
+    /// The slices bracketing `t_s`: `(k, k)` at a slice time (or outside the horizon),
+    /// else `(k, k + 1)` with `t_k < t_s < t_(k+1)`.
+    #[inline]
+    fn bracket(&self, t_s: f64) -> (usize, usize) {
+        let f = (t_s - self.t0_s) * self.inv_dt;
+        if f <= 0.0 {
+            return (0, 0);
+        }
+        let k = f.floor();
+        let last = self.n_slices - 1;
+        let k0 = (k as usize).min(last);
+        if f - k < 1e-6 || k0 == last {
+            (k0, k0)
+        } else {
+            (k0, k0 + 1)
+        }
+    }
+}
+
+impl RiskField for RiskMap {
+    /// The worse of the two slices bracketing `t_s` (a 40 kt obstacle moves 10 m in half
+    /// a 1 s slice, more than the buffer: reading the nearest slice alone could miss it).
+    #[inline]
+    fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
+        let (k0, k1) = self.bracket(t_s);
+        let mut r = self.slice_risk(p_m, k0);
+        if k1 != k0 && r < 1.0 {
+            r = r.max(self.slice_risk(p_m, k1));
+        }
+        r.clamp(0.0, 1.0)
+    }
+
+    /// Conservative: `1 - prod(1 - peak_i)` over every obstacle whose slice bounding box
+    /// meets the segment's bounding box in a slice the segment's times map to; 1 if the
+    /// segment comes within a NoFly disc.
+    fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
+        let (ka, kb) = (
+            self.bracket(t0_s.min(t1_s)).0,
+            self.bracket(t0_s.max(t1_s)).1,
+        );
+        let (k0, k1) = (ka.min(kb), ka.max(kb));
+        let sb = [
+            a_m[0].min(b_m[0]),
+            a_m[1].min(b_m[1]),
+            a_m[0].max(b_m[0]),
+            a_m[1].max(b_m[1]),
+        ];
+        for d in &self.discs {
+            let r = d.r0_m + d.growth_mps * (self.slice_time(k1) - d.t_ref_s).max(0.0);
+            if dist_point_segment(d.c, a_m, b_m) <= r {
+                return 1.0;
+            }
+        }
+        let mut keep = 1.0f64;
+        for c in self.contrib.values() {
+            if c.filtered || c.disc.is_some() {
+                continue;
+            }
+            let mut peak: f32 = 0.0;
+            for k in k0..=k1 {
+                let bb = c.bbox_m[k];
+                if bb[0] <= sb[2] && sb[0] <= bb[2] && bb[1] <= sb[3] && sb[1] <= bb[3] {
+                    peak = peak.max(c.max_p[k]);
+                }
+            }
+            keep *= 1.0 - f64::from(peak);
+        }
+        (1.0 - keep).clamp(0.0, 1.0)
+    }
+}

@@ -1,0 +1,291 @@
+//! Writing an obstacle into the map: particles propagated with its stage's motion model
+//! (or replayed from its earlier lap) are merged per cell and splatted with a disc stencil
+//! through a row-difference scratch, leaving runs of per-cell particle counts that are
+//! folded into the combined grid `q` in the same pass.
+
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+
+use super::{Contribution, ObstacleInput, RiskMap, Run, SliceGeom, Stencil, fnv1a};
+use crate::motion::Propagator;
+
+/// Largest observation gap a lap replay interpolates across, seconds.
+const LAP_MAX_GAP_S: f64 = 5.0;
+
+impl RiskMap {
+    pub(super) fn stencil(&mut self, r_m: f64, g: SliceGeom) -> usize {
+        let key = ((r_m * 1000.0).round() as u64, g.level);
+        if let Some(i) = self.stencils.iter().position(|(k, _)| *k == key) {
+            return i;
+        }
+        let rc = r_m / g.cell_m;
+        let n = rc.floor() as i32;
+        let mut rows = Vec::new();
+        let mut cells = 0;
+        for dy in -n..=n {
+            let rem = rc * rc - f64::from(dy * dy);
+            if rem < 0.0 {
+                continue;
+            }
+            let hw = rem.sqrt().floor() as i32;
+            rows.push((dy, hw));
+            cells += (2 * hw + 1) as usize;
+        }
+        self.stencils.push((key, Stencil { rows, cells }));
+        self.stencils.len() - 1
+    }
+
+    pub(super) fn splat_obstacle(&mut self, o: &ObstacleInput<'_>, r_m: f64, c: &mut Contribution) {
+        // Stencil per resolution level (at most three).
+        let mut si = [usize::MAX; 3];
+        for k in 0..self.n_slices {
+            let g = self.geo[k];
+            if si[g.level] == usize::MAX {
+                si[g.level] = self.stencil(r_m, g);
+            }
+        }
+        let n = self.cfg.particles;
+        let mut rng = ChaCha8Rng::seed_from_u64(self.cfg.seed ^ fnv1a(o.id));
+        let mut prop = Propagator::new(o.model, n, &mut rng);
+        // A periodic tour's particles: a fixed timing and position deviate each, scaled by
+        // the lap's spread at each slice (crate::periodic).
+        let lap_z: Vec<[f64; 3]> = if o.model.lap.is_some() {
+            (0..n)
+                .map(|_| std::array::from_fn(|_| StandardNormal.sample(&mut rng)))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let all = n as u32;
+        c.slice_start.push(0);
+        for k in 0..self.n_slices {
+            let tk = self.slice_time(k);
+            self.cur = self.geo[k];
+            self.begin_slice();
+            if tk <= o.model.t_s {
+                let p = o
+                    .track
+                    .position_at(tk, f64::INFINITY)
+                    .unwrap_or(o.model.position_m);
+                self.add_particle(p, all);
+            } else if o.model.speed_mps <= 0.0 {
+                self.add_particle(o.model.position_m, all);
+            } else if let Some(replay) = o.model.lap.and_then(|lap| {
+                let s = tk - o.model.t_s;
+                let base = lap.position(o.track, s, LAP_MAX_GAP_S)?;
+                let ahead = lap
+                    .position(o.track, s + 0.5, LAP_MAX_GAP_S)
+                    .unwrap_or(base);
+                let behind = lap
+                    .position(o.track, s - 0.5, LAP_MAX_GAP_S)
+                    .unwrap_or(base);
+                Some((base, [ahead[0] - behind[0], ahead[1] - behind[1]], lap, s))
+            }) {
+                let (base, vel, lap, s) = replay;
+                let (sig, jit) = (lap.sigma_m(s), lap.jitter_s(s));
+                for z in &lap_z {
+                    self.add_particle(
+                        [
+                            base[0] + vel[0] * z[0] * jit + z[1] * sig,
+                            base[1] + vel[1] * z[0] * jit + z[2] * sig,
+                        ],
+                        1,
+                    );
+                }
+            } else {
+                prop.advance_to(tk, &mut rng);
+                for i in 0..n {
+                    self.add_particle([prop.x[i], prop.y[i]], 1);
+                }
+            }
+            self.finish_slice(si[self.cur.level], c);
+        }
+    }
+
+    fn begin_slice(&mut self) {
+        self.stamp_gen = self.stamp_gen.wrapping_add(1);
+        if self.stamp_gen == 0 {
+            self.mark.fill((0, 0));
+            self.stamp_gen = 1;
+        }
+        self.centres.clear();
+        self.stamps.clear();
+    }
+
+    /// Merges a particle into its cell; a particle outside the grid is stamped on its own
+    /// (its stencil may still reach the grid).
+    fn add_particle(&mut self, p: [f64; 2], w: u32) {
+        let g = &self.cur;
+        let fx = (p[0] - self.cfg.min_m[0]) * g.inv_cell;
+        let fy = (p[1] - self.cfg.min_m[1]) * g.inv_cell;
+        // Inside the grid the truncating casts are the floor (no libm call on this path).
+        if fx >= 0.0 && fy >= 0.0 && fx < g.nx as f64 && fy < g.ny as f64 {
+            let j = fy as usize * g.nx + fx as usize;
+            let m = &mut self.mark[j];
+            if m.0 != self.stamp_gen {
+                *m = (self.stamp_gen, w);
+                self.centres.push(j as u32);
+            } else {
+                m.1 += w;
+            }
+        } else {
+            let (fx, fy) = (fx.floor(), fy.floor());
+            self.stamps
+                .push((fx.clamp(-1e8, 1e8) as i32, fy.clamp(-1e8, 1e8) as i32, w));
+        }
+    }
+
+    /// Splats the slice's merged centres into a dense buffer over their bounding box
+    /// (contiguous row additions), then keeps the non-zero cells as the slice's entries.
+    #[inline(never)]
+    fn finish_slice(&mut self, si: usize, c: &mut Contribution) {
+        let g = self.cur;
+        let nx = g.nx as i32;
+        let ny = g.ny as i32;
+        for &j in &self.centres {
+            let j = j as usize;
+            self.stamps
+                .push(((j % g.nx) as i32, (j / g.nx) as i32, self.mark[j].1));
+        }
+        let stencil = &self.stencils[si].1;
+        let rc = stencil
+            .rows
+            .iter()
+            .map(|r| r.0.abs().max(r.1))
+            .max()
+            .unwrap_or(0);
+        let (mut bx0, mut by0, mut bx1, mut by1) = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
+        for &(cx, cy, _) in &self.stamps {
+            bx0 = bx0.min(cx);
+            by0 = by0.min(cy);
+            bx1 = bx1.max(cx);
+            by1 = by1.max(cy);
+        }
+        let (bx0, by0) = (
+            (bx0.saturating_sub(rc)).max(0),
+            (by0.saturating_sub(rc)).max(0),
+        );
+        let (bx1, by1) = (
+            (bx1.saturating_add(rc)).min(nx - 1),
+            (by1.saturating_add(rc)).min(ny - 1),
+        );
+        let mut bb = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        let mut max_p: f32 = 0.0;
+        if bx0 <= bx1 && by0 <= by1 && !self.stamps.is_empty() {
+            // Row differences into the grid-sized scratch (kept all zero between slices):
+            // each stencil row adds +w at its first cell and -w just after its last; a
+            // prefix sum along the row's touched span then gives the splat, and the scan
+            // zeroes the scratch behind it. Two operations per stamp and row, whatever the
+            // stencil's width, and no clearing of untouched cells.
+            let stride = g.nx + 1;
+            self.rows_touched.clear();
+            for &(cx, cy, w) in &self.stamps {
+                for &(dy, hw) in &stencil.rows {
+                    let y = cy + dy;
+                    if y < by0 || y > by1 {
+                        continue;
+                    }
+                    let x0 = (cx - hw).max(bx0);
+                    let x1 = (cx + hw).min(bx1);
+                    if x0 > x1 {
+                        continue;
+                    }
+                    let row = y as usize * stride;
+                    self.diff[row + x0 as usize] += w as i32;
+                    self.diff[row + x1 as usize + 1] -= w as i32;
+                    let span = &mut self.row_span[y as usize];
+                    if span.0 > span.1 {
+                        self.rows_touched.push(y as u32);
+                    }
+                    span.0 = span.0.min(x0);
+                    span.1 = span.1.max(x1);
+                }
+            }
+            self.rows_touched.sort_unstable();
+            let (mut ix0, mut iy0, mut ix1, mut iy1) = (usize::MAX, usize::MAX, 0, 0);
+            let qbase = g.off;
+            let mut max_count = 0u32;
+            for &gy in &self.rows_touched {
+                let gy = gy as usize;
+                let (lo, hi) = std::mem::replace(&mut self.row_span[gy], (i32::MAX, i32::MIN));
+                let (lo, hi) = (lo as usize, hi as usize);
+                let row = &mut self.diff[gy * stride + lo..=gy * stride + hi + 1];
+                let gbase = gy * g.nx + lo;
+                let (last, body) = row.split_last_mut().expect("span is not empty");
+                *last = 0;
+                let mut acc = 0i32;
+                // Open run: (first cell, counts offset); a gap of GAP zero cells closes it.
+                const GAP: usize = 8;
+                let mut open: Option<(usize, usize)> = None;
+                let mut zeros = 0usize;
+                let mut row_first = usize::MAX;
+                let mut row_last = 0usize;
+                for (xx, d) in body.iter_mut().enumerate() {
+                    acc += *d;
+                    *d = 0;
+                    if acc > 0 {
+                        let n = acc as u32;
+                        max_count = max_count.max(n);
+                        if open.is_none() {
+                            open = Some((xx, c.counts.len()));
+                        } else {
+                            // Keep the short gap inside the run (zero counts).
+                            c.counts.extend(std::iter::repeat_n(0, zeros));
+                        }
+                        zeros = 0;
+                        c.counts.push(n as u16);
+                        // Fold the contribution into the combined grid in the same pass.
+                        self.q[qbase + gbase + xx] *= self.omp_table[n as usize];
+                        row_first = row_first.min(xx);
+                        row_last = xx;
+                    } else if let Some((x_start, start)) = open {
+                        zeros += 1;
+                        if zeros >= GAP {
+                            let len = c.counts.len() - start;
+                            c.runs.push(Run {
+                                idx: (gbase + x_start) as u32,
+                                len: len as u32,
+                                start: start as u32,
+                            });
+                            open = None;
+                            zeros = 0;
+                        }
+                    }
+                }
+                if let Some((x_start, start)) = open {
+                    let len = c.counts.len() - start;
+                    c.runs.push(Run {
+                        idx: (gbase + x_start) as u32,
+                        len: len as u32,
+                        start: start as u32,
+                    });
+                }
+                if row_first != usize::MAX {
+                    ix0 = ix0.min(lo + row_first);
+                    ix1 = ix1.max(lo + row_last);
+                    iy0 = iy0.min(gy);
+                    iy1 = iy1.max(gy);
+                }
+            }
+            max_p = (max_count as f32 / self.cfg.particles as f32).min(1.0);
+            if ix0 != usize::MAX {
+                let cm = g.cell_m;
+                bb = [
+                    self.cfg.min_m[0] + ix0 as f64 * cm,
+                    self.cfg.min_m[1] + iy0 as f64 * cm,
+                    self.cfg.min_m[0] + (ix1 + 1) as f64 * cm,
+                    self.cfg.min_m[1] + (iy1 + 1) as f64 * cm,
+                ];
+            }
+        }
+        c.slice_start.push(c.runs.len() as u32);
+        c.bbox_m.push(bb);
+        c.max_p.push(max_p);
+    }
+}
