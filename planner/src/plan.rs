@@ -123,6 +123,11 @@ pub struct PlanParams {
     pub keep_slack: f64,
     /// See [`PlanParams::keep_slack`], metres. Default 30.
     pub keep_slack_m: f64,
+    /// Cylinders are planned and verified this much wider than they are, metres, on top
+    /// of the buffer fraction (a fixed wing's tracking error does not shrink with a small
+    /// cylinder's radius; 20% of 10 m is 2 m). Shrunk per cylinder so that neither the
+    /// aircraft nor a fixed item still to fly lies inside the widened cylinder. Default 8.
+    pub cylinder_margin_m: f64,
 }
 
 impl Default for PlanParams {
@@ -139,6 +144,7 @@ impl Default for PlanParams {
             detour: DetourParams::default(),
             keep_slack: 0.05,
             keep_slack_m: 30.0,
+            cylinder_margin_m: 8.0,
         }
     }
 }
@@ -338,7 +344,11 @@ pub fn plan_until(
     let ci = req.current_index.min(stack.len());
     let p = &req.params;
     let zones = Zones::new(&req.mission.fly_zones);
-    let cylinders = &req.mission.cylinders;
+    let fixed_points: Vec<Point> = std::iter::once(s.p_m)
+        .chain(stack[ci..].iter().filter(|i| i.is_fixed()).map(|i| i.p_m))
+        .collect();
+    let widened = widen_cylinders(&req.mission.cylinders, &fixed_points, p.cylinder_margin_m);
+    let cylinders = &widened;
     let horizon_end = s.t_s + p.horizon_s;
     let env_at = |alt_m: f64| LegEnv {
         risk,
@@ -527,6 +537,7 @@ pub fn plan_until(
         .collect();
 
     let safe = best.is_clear(p.safe_risk);
+    let cylinders = &req.mission.cylinders;
     let outcome = if let Some(c) = cylinder_containing(cylinders, s.p_m, s.alt_m) {
         PlanOutcome::StartInsideObstacle { cylinder: c }
     } else if !zones.contains(s.p_m) {
@@ -567,6 +578,29 @@ pub fn plan_until(
         evaluations,
         seed: req.seed,
     })
+}
+
+/// `cylinders` each widened by `margin_m`, less where that would swallow one of
+/// `keep_out` (the aircraft and the fixed items still to fly): such a cylinder is widened
+/// only to 1 m short of the nearest of them (never narrowed).
+fn widen_cylinders(
+    cylinders: &[crate::mission::Cylinder],
+    keep_out: &[Point],
+    margin_m: f64,
+) -> Vec<crate::mission::Cylinder> {
+    cylinders
+        .iter()
+        .map(|c| {
+            let room = keep_out
+                .iter()
+                .map(|&q| dist(q, c.center_m) - c.radius_m - 1.0)
+                .fold(f64::INFINITY, f64::min);
+            crate::mission::Cylinder {
+                radius_m: c.radius_m + margin_m.min(room).max(0.0),
+                ..*c
+            }
+        })
+        .collect()
 }
 
 /// The tangent graph's route from `a` to `b` at `alt_m` around the cylinders inside the

@@ -359,3 +359,70 @@ fn with_cylinders_alone_a_clear_route_is_found_whenever_one_exists() {
     }
     assert!(checked >= 10, "only {checked} fields had a route");
 }
+
+#[test]
+fn a_small_cylinder_is_passed_with_the_margin_not_only_its_tiny_buffer() {
+    // A 10 m cylinder 12 m south of a 2 km leg east: 20% buffer is only 2 m, so the leg
+    // "clears" it by 2 m and buffer alone would keep it. A fixed wing tracks worse than
+    // that; the plan must pass at least `cylinder_margin_m` outside the cylinder.
+    let cyl = common::cylinder([1000.0, -12.0], 10.0);
+    let mission = common::open_mission(vec![cyl], &[[0.0, 0.0], [2000.0, 0.0]]);
+    let stack = mission_stack(&mission);
+    let params = PlanParams::default();
+    let req = PlanRequest {
+        mission: &mission,
+        aircraft: aircraft(),
+        stack: &stack,
+        current_index: 1,
+        state: east_state(0.0),
+        params,
+        seed: 3,
+    };
+    let p = plan(&req, &NoRisk).unwrap();
+    assert_eq!(p.outcome, PlanOutcome::Exact, "{p:?}");
+    let r = route(&req.state, &p.items, p.current_index);
+    let closest = r
+        .windows(2)
+        .map(|w| dist_point_segment(cyl.center_m, w[0], w[1]))
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        closest >= cyl.radius_m + params.cylinder_margin_m - 1e-6,
+        "passes {closest:.1} m from the centre of a {} m cylinder",
+        cyl.radius_m
+    );
+    // Without the margin the straight leg is kept (the test would not catch a regression
+    // if the leg did not graze the cylinder).
+    let bare = PlanRequest {
+        params: PlanParams {
+            cylinder_margin_m: 0.0,
+            ..params
+        },
+        ..req
+    };
+    let q = plan(&bare, &NoRisk).unwrap();
+    assert_eq!(q.added, 0, "{q:?}");
+}
+
+#[test]
+fn the_margin_never_swallows_a_waypoint_next_to_a_cylinder() {
+    // A waypoint 3 m outside a cylinder: the margin shrinks there, and the plan still
+    // reaches it clear.
+    let cyl = common::cylinder([1000.0, -33.0], 30.0);
+    let mission = common::open_mission(vec![cyl], &[[0.0, 0.0], [1000.0, 0.0], [2000.0, 0.0]]);
+    let stack = mission_stack(&mission);
+    let req = PlanRequest {
+        mission: &mission,
+        aircraft: aircraft(),
+        stack: &stack,
+        current_index: 1,
+        state: east_state(0.0),
+        params: PlanParams::default(),
+        seed: 3,
+    };
+    let p = plan(&req, &NoRisk).unwrap();
+    assert!(
+        !matches!(p.outcome, PlanOutcome::WaypointInsideCylinder { .. }),
+        "{p:?}"
+    );
+    assert!(p.items.iter().any(|i| i.p_m == [1000.0, 0.0]));
+}
