@@ -57,7 +57,7 @@ impl Default for VerifyParams {
     fn default() -> Self {
         Self {
             step_m: 3.0,
-            near_s: 20.0,
+            near_s: 10.0,
             far_risk: 0.3,
         }
     }
