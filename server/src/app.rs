@@ -215,6 +215,8 @@ async fn shutdown_signal() {
         () = term => {},
     }
     tracing::info!("shutting down");
+    // Open pages' event streams never end by themselves.
+    crate::page::shut_down();
 }
 
 /// Problem+json for a response produced outside the API (kept for symmetry with the

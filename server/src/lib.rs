@@ -12,6 +12,7 @@ pub mod error;
 pub mod extract;
 pub mod live;
 pub mod metrics;
+mod page;
 mod render;
 pub mod store;
 
