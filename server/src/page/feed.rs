@@ -134,7 +134,17 @@ impl Feed {
     /// Database failures; 404 when the mission was deleted.
     pub async fn state_if_changed(&mut self, state: &AppState) -> Result<Option<Value>, ApiError> {
         let id = self.mission.id.clone();
-        let snap = state.live.snapshot(state, &self.mission).await?;
+        // The snapshot last published (each accepted batch publishes a new one in the
+        // background): the page never waits for a map build. Only an unloaded state (first
+        // use, or the mission deleted and forgotten) is loaded, which answers 404 for a
+        // deleted mission.
+        let live = state.live.entry(&self.mission);
+        let published = live.published();
+        let snap = if published.seq >= 0 {
+            published
+        } else {
+            live.snapshot(state).await?
+        };
         let telemetry = state
             .store
             .list_telemetry(&id, Some(AIRCRAFT_TRACK_POINTS))
