@@ -10,7 +10,8 @@
 //!   `/api/obstacles` form, feet) at 5 Hz each, the interop rates;
 //! - asks for a plan at 1 Hz (`base_revision` = the revision it flies, `current_index` =
 //!   the item it flies toward, seed derived from `--seed`) and installs each new revision
-//!   on the simulated autopilot (`sim::aircraft::Autopilot`, L1 guidance).
+//!   on the simulated autopilot (`sim::aircraft::Autopilot`, L1 guidance), skipping as many
+//!   items as the aircraft reached while the plan was computed (else it would turn back).
 //!
 //! `--server URL` flies against a service already running (the browser test does, so that
 //! it can restart that service under the page) instead of starting one.
@@ -293,7 +294,8 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
     };
     let failed = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
     let (plan_tx, mut plan_rx) = tokio::sync::mpsc::channel::<Result<PlanOut, String>>(2);
-    let mut plan_in_flight = false;
+    // The stack item the aircraft flew toward when the plan in flight was asked for.
+    let mut plan_in_flight: Option<usize> = None;
     let mut revision = 0_i64;
     let mut last_plan = String::from("no plan yet");
     let mut step = 0_u64;
@@ -328,8 +330,8 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                     &failed,
                 );
             }
-            if step % PLAN_EVERY == 0 && !plan_in_flight {
-                plan_in_flight = true;
+            if step % PLAN_EVERY == 0 && plan_in_flight.is_none() {
+                plan_in_flight = Some(stack.current);
                 let body = json!({
                     "seed": p.seed.wrapping_mul(1_000_003).wrapping_add(step / PLAN_EVERY),
                     "deadline_ms": PLAN_DEADLINE_MS,
@@ -348,7 +350,7 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
             }
         }
         while let Ok(answer) = plan_rx.try_recv() {
-            plan_in_flight = false;
+            let asked_at = plan_in_flight.take();
             match answer {
                 Ok(plan) if plan.revision > revision => {
                     revision = plan.revision;
@@ -356,7 +358,12 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                         "plan revision {} ({}, {:.0} ms, {} avoid waypoints)",
                         plan.revision, plan.outcome, plan.compute_ms, plan.added
                     );
-                    ap.replace_stack(&mut stack, stack_from_plan(&plan, &frame));
+                    let mut next = stack_from_plan(&plan, &frame);
+                    // Items the aircraft reached while the plan was computed are behind it:
+                    // skip as many in the new stack rather than turn back for them.
+                    let reached = stack.current.saturating_sub(asked_at.unwrap_or(stack.current));
+                    next.current = (next.current + reached).min(next.items.len());
+                    ap.replace_stack(&mut stack, next);
                 }
                 Ok(_) => {}
                 Err(e) => {
