@@ -10,7 +10,8 @@
 //! obstacle markers move; what is drawn is checked against the API (moving obstacles,
 //! the plan's waypoints and revision); the look-ahead slider is moved with the keyboard
 //! and the risk layer must change; the server is killed and restarted on the same address
-//! and database, and the page must reconnect and go on updating. A screenshot is saved as
+//! and database, and the page must reconnect and go on updating; the replay is scrubbed
+//! from the recording's start to its end and back to live. A screenshot is saved as
 //! `target/tmp/operator-page.png`; page weight and first render time are printed.
 //!
 //! Without a Chromium (`chromium`, `chromium-browser`, `google-chrome`, or the path in
@@ -289,6 +290,26 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
         Duration::from_secs(20),
     );
     assert_eq!(eval(&tab, "document.getElementById('conn').dataset.state"), "live");
+
+    // The replay: the recording from its first second (the older track: no plan yet) to
+    // its last (a plan), with the judges' scoring.
+    let toggle = tab.find_element("#replay-toggle").unwrap();
+    toggle.focus().unwrap();
+    tab.press_key("Enter").unwrap();
+    wait_for(&tab, "the replay", "document.body.dataset.mode === 'replay' && document.body.dataset.replayT", Duration::from_secs(15));
+    assert!(num(&eval(&tab, "+document.body.dataset.revision")) >= r1, "the end of the recording shows the newest plans");
+    tab.find_element("#replay-t").unwrap().focus().unwrap();
+    tab.press_key("Home").unwrap();
+    wait_for(&tab, "the recording's start", "document.body.dataset.replayT === '0'", Duration::from_secs(5));
+    assert_eq!(num(&eval(&tab, "+document.body.dataset.revision")), 0.0, "no plan at the start");
+    assert_eq!(num(&eval(&tab, "document.querySelectorAll('#aircraft').length")), 1.0);
+    let score = eval(&tab, "document.getElementById('replay-score').textContent");
+    assert!(score.as_str().unwrap().contains("Whole flight, judged: sphere score"), "{score}");
+    tab.press_key("End").unwrap();
+    wait_for(&tab, "the recording's end", "document.body.dataset.replayT !== '0'", Duration::from_secs(5));
+    toggle.focus().unwrap();
+    tab.press_key("Enter").unwrap();
+    wait_for(&tab, "live again", "document.body.dataset.mode === 'live'", Duration::from_secs(5));
 
     // A picture for people.
     let png = tab

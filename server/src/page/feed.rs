@@ -17,7 +17,7 @@ use serde_json::{Value, json};
 
 use crate::api::obstacles::StageOut;
 use crate::api::plan_record::stored_plan_out;
-use crate::api::plans::{KindOut, PlanOut};
+use crate::api::plans::PlanOut;
 use crate::app::AppState;
 use crate::error::ApiError;
 use crate::live::Snapshot;
@@ -33,11 +33,11 @@ pub const HISTORY_PLANS: i64 = 20;
 /// Telemetry or obstacle data older than this by the server's clock is stale, seconds.
 pub const STALE_S: f64 = 3.0;
 
-fn r1(x: f64) -> f64 {
+pub(crate) fn r1(x: f64) -> f64 {
     (x * 10.0).round() / 10.0
 }
 
-fn pt(p: [f64; 2]) -> [f64; 2] {
+pub(crate) fn pt(p: [f64; 2]) -> [f64; 2] {
     [r1(p[0]), r1(p[1])]
 }
 
@@ -84,6 +84,31 @@ pub fn mission_json(m: &Mission) -> Value {
             "id": o.id.to_string(), "p": pt(f.to_enu(o.lat, o.lon)),
             "radius_m": r1(o.radius_m), "top_msl_m": r1(o.top_msl_m),
         })).collect::<Vec<_>>(),
+    })
+}
+
+/// A plan as the page draws it: its stack in ENU metres, each item flagged when the plan's
+/// diff wrote it (`changed`), and the diff's size.
+pub fn plan_json(p: &PlanOut, frame: &crate::geodesy::LocalFrame) -> Value {
+    let first = p.diff.first_changed;
+    json!({
+        "revision": p.revision,
+        "plan_id": p.plan_id,
+        "outcome": p.outcome,
+        "current_index": p.current_index,
+        "risk": p.risk,
+        "compute_ms": p.compute_ms,
+        "seed": p.seed.to_string(),
+        "created_at": p.created_at,
+        "start_t": p.start.t,
+        "waypoints": p.waypoints.iter().enumerate().map(|(i, w)| json!({
+            "p": pt(frame.to_enu(w.lat, w.lon)),
+            "alt_msl_m": r1(w.alt_msl_m),
+            "kind": w.kind,
+            "mission_index": w.mission_index,
+            "changed": first.is_some_and(|f| i >= f && i < f + p.diff.insert.len()),
+        })).collect::<Vec<_>>(),
+        "diff": {"first_changed": first, "remove": p.diff.remove, "insert": p.diff.insert.len()},
     })
 }
 
@@ -313,28 +338,7 @@ impl Feed {
                 "track": telemetry.iter().map(|r| pt(frame.to_enu(r.lat_deg, r.lon_deg))).collect::<Vec<_>>(),
             })
         });
-        let plan = self.plan.as_ref().map(|p| {
-            let first = p.diff.first_changed;
-            json!({
-                "revision": p.revision,
-                "plan_id": p.plan_id,
-                "outcome": p.outcome,
-                "current_index": p.current_index,
-                "risk": p.risk,
-                "compute_ms": p.compute_ms,
-                "seed": p.seed.to_string(),
-                "created_at": p.created_at,
-                "waypoints": p.waypoints.iter().enumerate().map(|(i, w)| json!({
-                    "p": pt(frame.to_enu(w.lat, w.lon)),
-                    "alt_msl_m": r1(w.alt_msl_m),
-                    "kind": w.kind,
-                    "mission_index": w.mission_index,
-                    "changed": first.is_some_and(|f| i >= f && i < f + p.diff.insert.len()),
-                    "avoid": w.kind == KindOut::Avoid,
-                })).collect::<Vec<_>>(),
-                "diff": {"first_changed": first, "remove": p.diff.remove, "insert": p.diff.insert.len()},
-            })
-        });
+        let plan = self.plan.as_ref().map(|p| plan_json(p, &frame));
         let history: Vec<Value> = self
             .history
             .values()

@@ -3,7 +3,8 @@
 //! server-sent events (`GET /missions/{id}/events`) from the mission's live state
 //! ([`feed`]) and by the risk layer (`GET /missions/{id}/risk-layer.png`), the live risk
 //! map's slice at the look-ahead the page's slider chooses, drawn with the same colours as
-//! the risk PNG ([`crate::render::heat`]).
+//! the risk PNG ([`crate::render::heat`]). `GET /missions/{id}/replay` gives the page's
+//! replay timeline ([`replay`]).
 //!
 //! The events: `mission` (the fixed geometry) first on every connection, then `state`
 //! whenever the snapshot, the telemetry, the plans or the warnings change (checked every
@@ -12,6 +13,7 @@
 //! streams end when the service shuts down ([`shut_down`]).
 
 pub mod feed;
+pub mod replay;
 
 use std::convert::Infallible;
 use std::time::Duration;
@@ -212,10 +214,31 @@ async fn risk_layer(
     Ok(resp)
 }
 
+/// The mission's recorded timeline for the page's replay: aircraft telemetry
+/// `[t, [east, north], alt_msl_m, heading_deg]`, obstacle positions (every 0.5 s at most),
+/// every plan (as the live state shows it, with its start time `start_t`), and the
+/// judges' scoring of the flight by the simulator's scoring: the whole flight's scores,
+/// hits, captured waypoints and smallest clearance, and per second the smallest clearance
+/// and the obstacles hit. Positions are ENU metres in the mission's frame.
+#[utoipa::path(get, path = "/missions/{id}/replay", tag = "service",
+    params(("id" = String, Path, description = "Mission id")),
+    responses(
+        (status = 200, description = "The recorded timeline and its scoring", body = Object, content_type = "application/json"),
+        (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
+    ))]
+async fn mission_replay(
+    State(state): State<AppState>,
+    Path(id): Path<MissionId>,
+) -> Result<axum::Json<serde_json::Value>, ApiError> {
+    let mission = crate::api::missions::load(&state, &id).await?;
+    Ok(axum::Json(replay::replay_json(&state, &mission).await?))
+}
+
 /// The page's routes.
 pub fn router() -> OpenApiRouter<AppState> {
     OpenApiRouter::new()
         .routes(routes!(mission_page))
         .routes(routes!(mission_events))
         .routes(routes!(risk_layer))
+        .routes(routes!(mission_replay))
 }

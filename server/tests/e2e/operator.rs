@@ -1,5 +1,5 @@
 //! The operator's pages (issue 13): the mission list at `/`, the live page
-//! `/missions/{id}`, its server-sent events and its risk layer. (A real browser drives the
+//! `/missions/{id}`, its server-sent events, its risk layer and its replay. (A real browser drives the
 //! page in `tests/browser.rs`.)
 
 use std::time::{Duration, Instant};
@@ -118,10 +118,29 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
     let opaque = buf.chunks(4).filter(|px| px[3] == 255).count();
     assert!(opaque > 0, "the obstacles' spread is drawn");
     let bad = app.get(&format!("/missions/{id}/risk-layer.png?t=61")).await;
-    let p = problem(bad, 422).await;
-    assert_eq!(p["errors"][0]["pointer"], "/t", "{p}");
+    let doc = problem(bad, 422).await;
+    assert_eq!(doc["errors"][0]["pointer"], "/t", "{doc}");
 
-    for path in ["/missions/nope", "/missions/nope/events", "/missions/nope/risk-layer.png"] {
+    // The replay: the recording on one timeline, and the judges' scoring of it. The
+    // aircraft's one telemetry point is inside no obstacle and far from the waypoints.
+    let r = app.get_json(&format!("/missions/{id}/replay")).await;
+    assert_eq!(r["telemetry"].as_array().unwrap().len(), 1);
+    let obstacles = r["obstacles"].as_array().unwrap();
+    assert_eq!(obstacles.len(), 2);
+    // 6 s of 5 Hz observations, sent at least 0.5 s apart: one in three (0.6 s apart).
+    assert_eq!(obstacles[0]["samples"].as_array().unwrap().len(), 10, "{}", obstacles[0]);
+    assert_eq!(r["plans"][0]["plan_id"], p["plan_id"]);
+    assert_eq!(r["scoring"]["sphere_score"], 1.0);
+    assert_eq!(r["scoring"]["spheres_hit"], json!([]));
+    assert_eq!(r["scoring"]["waypoints"], 14);
+    assert!(r["scoring"]["min_clearance_m"].as_f64().unwrap() > 0.0);
+
+    for path in [
+        "/missions/nope",
+        "/missions/nope/events",
+        "/missions/nope/risk-layer.png",
+        "/missions/nope/replay",
+    ] {
         problem(app.get(path).await, 404).await;
     }
 }

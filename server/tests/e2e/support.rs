@@ -158,6 +158,7 @@ impl App {
 
     /// [`Self::kill9_and_restart`] on the same address, so that clients (a browser page)
     /// find the service where it was.
+    #[allow(dead_code)] // tests/browser.rs
     pub fn kill9_and_restart_at_the_same_address(&mut self) {
         self.bind = Some(self.base.trim_start_matches("http://").to_string());
         self.kill9_and_restart();
