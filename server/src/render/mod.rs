@@ -96,6 +96,22 @@ fn paint(c: [u8; 3]) -> Paint<'static> {
     p
 }
 
+/// The path through `pts` in order, closed when `close` (None with fewer than two points).
+fn path_through(pts: &[(f32, f32)], close: bool) -> Option<tiny_skia::Path> {
+    let mut pb = PathBuilder::new();
+    for (i, &(x, y)) in pts.iter().enumerate() {
+        if i == 0 {
+            pb.move_to(x, y);
+        } else {
+            pb.line_to(x, y);
+        }
+    }
+    if close {
+        pb.close();
+    }
+    pb.finish()
+}
+
 /// The canvas: a pixmap and the affine map from ENU metres to its pixels.
 struct Canvas {
     pixmap: Pixmap,
@@ -112,18 +128,7 @@ impl Canvas {
     }
 
     fn polyline(&mut self, pts: &[(f32, f32)], close: bool, c: [u8; 3], width: f32) {
-        let mut pb = PathBuilder::new();
-        for (i, &(x, y)) in pts.iter().enumerate() {
-            if i == 0 {
-                pb.move_to(x, y);
-            } else {
-                pb.line_to(x, y);
-            }
-        }
-        if close {
-            pb.close();
-        }
-        if let Some(path) = pb.finish() {
+        if let Some(path) = path_through(pts, close) {
             let stroke = Stroke {
                 width,
                 ..Stroke::default()
@@ -157,16 +162,7 @@ impl Canvas {
     }
 
     fn polygon(&mut self, pts: &[(f32, f32)], c: [u8; 3]) {
-        let mut pb = PathBuilder::new();
-        for (i, &(x, y)) in pts.iter().enumerate() {
-            if i == 0 {
-                pb.move_to(x, y);
-            } else {
-                pb.line_to(x, y);
-            }
-        }
-        pb.close();
-        if let Some(path) = pb.finish() {
+        if let Some(path) = path_through(pts, true) {
             self.pixmap.fill_path(
                 &path,
                 &paint(c),

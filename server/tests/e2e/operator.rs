@@ -95,18 +95,15 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
     // obstacles; a look-ahead beyond the horizon names the field.
     let r = app.get(&format!("/missions/{id}/risk-layer.png?t=10")).await;
     assert_eq!(r.status(), 200);
-    let grid: Vec<f64> = r.headers()["x-jink-risk-grid"]
-        .to_str()
-        .unwrap()
-        .split(' ')
-        .map(|v| v.parse().unwrap())
-        .collect();
-    let t: Vec<f64> = r.headers()["x-jink-risk-t"]
-        .to_str()
-        .unwrap()
-        .split(' ')
-        .map(|v| v.parse().unwrap())
-        .collect();
+    let numbers = |header: &str| -> Vec<f64> {
+        r.headers()[header]
+            .to_str()
+            .unwrap()
+            .split(' ')
+            .map(|v| v.parse().unwrap())
+            .collect()
+    };
+    let (grid, t) = (numbers("x-jink-risk-grid"), numbers("x-jink-risk-t"));
     assert_eq!(t[0], 10.0);
     let png = r.bytes().await.unwrap();
     let mut reader = png::Decoder::new(std::io::Cursor::new(png.to_vec()))
