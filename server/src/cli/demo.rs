@@ -310,7 +310,7 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
             ap.step(&mut stack, STEP_S);
             step += 1;
             let t_s = t0_s + step as f64 * STEP_S;
-            if step % POST_EVERY == 0 {
+            if step.is_multiple_of(POST_EVERY) {
                 let s = ap.state;
                 let (lat, lon) = frame.to_geodetic([s.p_m[0], s.p_m[1]]);
                 let heading = (90.0 - s.heading_rad.to_degrees()).rem_euclid(360.0);
@@ -330,7 +330,7 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                     &failed,
                 );
             }
-            if step % PLAN_EVERY == 0 && plan_in_flight.is_none() {
+            if step.is_multiple_of(PLAN_EVERY) && plan_in_flight.is_none() {
                 plan_in_flight = Some(stack.current);
                 let body = json!({
                     "seed": p.seed.wrapping_mul(1_000_003).wrapping_add(step / PLAN_EVERY),

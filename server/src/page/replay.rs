@@ -27,6 +27,9 @@ pub const MAX_PLANS: i64 = 3000;
 /// Obstacle positions are sent at most this often, seconds.
 pub const OBSTACLE_STEP_S: f64 = 0.5;
 
+/// One obstacle's observations `(t, [east, north, alt])` in time order, and its radius.
+pub type RecordedTrack = (Vec<(f64, [f64; 3])>, f64);
+
 /// Recorded obstacle tracks as the scoring's ground truth: per obstacle (in id order), its
 /// observations `(t, [east, north, alt])` in time order and its radius.
 #[derive(Debug, Clone, Default)]
@@ -34,7 +37,7 @@ pub struct Recorded {
     /// Obstacle ids, in the order of `tracks`.
     pub ids: Vec<String>,
     /// Per obstacle: observations in time order, and the newest radius.
-    pub tracks: Vec<(Vec<(f64, [f64; 3])>, f64)>,
+    pub tracks: Vec<RecordedTrack>,
 }
 
 impl SphereTruth for Recorded {
@@ -128,7 +131,7 @@ pub async fn replay_json(state: &AppState, mission: &Mission) -> Result<Value, A
             plans.push(plan_json(&stored_plan_out(&row)?, &frame));
         }
     }
-    let mut by_id: BTreeMap<String, (Vec<(f64, [f64; 3])>, f64)> = BTreeMap::new();
+    let mut by_id: BTreeMap<String, RecordedTrack> = BTreeMap::new();
     for o in &observations {
         let e = by_id.entry(o.obstacle_id.clone()).or_default();
         let [x, y] = frame.to_enu(o.lat_deg, o.lon_deg);
