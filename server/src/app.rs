@@ -180,7 +180,15 @@ async fn observe(State(state): State<AppState>, req: Request, next: Next) -> Res
 /// # Errors
 /// When the address cannot be bound.
 pub async fn serve(addr: SocketAddr, state: AppState) -> std::io::Result<()> {
-    let listener = tokio::net::TcpListener::bind(addr).await?;
+    serve_on(tokio::net::TcpListener::bind(addr).await?, state).await
+}
+
+/// Serves `state` on a bound `listener` until Ctrl-C / SIGTERM (what [`serve`] does after
+/// binding; `jink demo` binds first to learn its address).
+///
+/// # Errors
+/// When the listener's address cannot be read.
+pub async fn serve_on(listener: tokio::net::TcpListener, state: AppState) -> std::io::Result<()> {
     let local = listener.local_addr()?;
     println!("jink listening on http://{local}");
     tracing::info!(%local, backend = ?state.store.backend(), "serving");
@@ -207,6 +215,8 @@ async fn shutdown_signal() {
         () = term => {},
     }
     tracing::info!("shutting down");
+    // Open pages' event streams never end by themselves.
+    crate::page::shut_down();
 }
 
 #[cfg(test)]

@@ -23,6 +23,7 @@ mod extract;
 #[allow(dead_code)]
 mod live;
 mod metrics;
+mod page;
 mod render;
 mod store;
 

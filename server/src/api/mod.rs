@@ -55,6 +55,7 @@ pub fn router() -> OpenApiRouter<AppState> {
         .merge(missions::router())
         .merge(telemetry::router())
         .merge(operator::router())
+        .merge(crate::page::router())
         .merge(reactive::router())
         .merge(plans::router())
         .merge(plan_files::router())

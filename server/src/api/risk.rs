@@ -84,15 +84,15 @@ pub(crate) struct RiskSliceOut {
 }
 
 /// A slice of the live risk map and what it was cut from.
-struct Slice {
-    slice: predictor::SliceView,
-    snap: std::sync::Arc<crate::live::Snapshot>,
-    mission: crate::mission::Mission,
+pub(crate) struct Slice {
+    pub slice: predictor::SliceView,
+    pub snap: std::sync::Arc<crate::live::Snapshot>,
+    pub mission: crate::mission::Mission,
     /// Latest aircraft telemetry or observation time (None with no data at all).
-    anchor_t: Option<f64>,
+    pub anchor_t: Option<f64>,
     /// The anchor, or 0 without one.
-    t0: f64,
-    horizon_s: f64,
+    pub t0: f64,
+    pub horizon_s: f64,
 }
 
 fn t_out_of_range(t: f64) -> ApiError {
@@ -118,7 +118,7 @@ fn check_t_ahead(t: Option<f64>) -> Result<f64, ApiError> {
 /// # Errors
 /// 404 without the mission; 422 naming `/t` when `t_ahead` is not within the map's
 /// horizon.
-async fn with_slice<T: Send + 'static>(
+pub(crate) async fn with_slice<T: Send + 'static>(
     state: &AppState,
     id: &MissionId,
     t_ahead: Option<f64>,
@@ -233,8 +233,10 @@ async fn get_risk(
 ///
 /// The same slice as `GET .../risk`, north up: risk on a square-root colour scale (white,
 /// pale yellow, orange, dark red) with its legend, fly zones blue, waypoints green,
-/// cylinders black, moving obstacles magenta with a 10 s velocity line, a 100 m scale bar
-/// and the slice's time.
+/// cylinders black, moving obstacles magenta with a 10 s velocity line, the current plan
+/// (dark green legs, orange avoid waypoints) from the item before the one flown toward,
+/// the aircraft (a blue arrow along its heading), a 100 m scale bar and the slice's time
+/// (seconds ahead, and UTC). The operator page's risk layer uses the same colours.
 #[utoipa::path(get, path = "/api/v1/missions/{id}/risk/png", tag = "prediction",
     params(("id" = String, Path, description = "Mission id"), RiskPngParams),
     responses(
@@ -246,7 +248,29 @@ async fn get_risk_png(
     Path(id): Path<MissionId>,
     ApiQuery(q): ApiQuery<RiskPngParams>,
 ) -> Result<Response, ApiError> {
-    let png = with_slice(&state, &id, q.t, |s| {
+    let aircraft = state.store.list_telemetry(&id, Some(1)).await?.pop();
+    let plan = match state.store.latest_plan_revision(&id).await? {
+        0 => None,
+        r => state
+            .store
+            .get_plan_by_revision(&id, r)
+            .await?
+            .map(|row| super::plan_record::stored_plan_out(&row))
+            .transpose()?,
+    };
+    let png = with_slice(&state, &id, q.t, move |s| {
+        let frame = s.snap.frame;
+        let overlay = crate::render::Overlay {
+            aircraft: aircraft.map(|a| (frame.to_enu(a.lat_deg, a.lon_deg), a.heading_deg)),
+            plan: plan.map_or_else(Vec::new, |p| {
+                p.waypoints
+                    .iter()
+                    .skip(p.current_index.saturating_sub(1))
+                    .map(|w| (frame.to_enu(w.lat, w.lon), w.kind == super::plans::KindOut::Avoid))
+                    .collect()
+            }),
+            t_s: s.anchor_t.map(|_| s.slice.t_s),
+        };
         let movers: Vec<crate::render::Mover> = s
             .snap
             .predictor
@@ -262,6 +286,7 @@ async fn get_risk_png(
             &s.snap.frame,
             &s.mission,
             &movers,
+            &overlay,
             s.slice.t_s - s.t0,
         )
         .map_err(|e| ApiError::Internal(format!("png: {e}")))

@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+pub mod demo;
 pub mod openapi;
 pub mod plan;
 pub mod reactive;
@@ -32,6 +33,9 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Simulate the avoidance strategies in closed loop and score them as the judges did.
     Simulate(simulate::SimulateArgs),
+    /// Start the service on a temporary SQLite database and fly a simulated aircraft
+    /// against simulated moving obstacles through its API; prints the live page's URL.
+    Demo(demo::DemoArgs),
     // jink:subcommands -- add a variant here and its arm in `run` below
 }
 
@@ -44,6 +48,7 @@ pub fn run() -> ExitCode {
         Command::Reactive(args) => reactive::run(args),
         Command::Plan(args) => plan::run(args),
         Command::Simulate(args) => simulate::run(args),
+        Command::Demo(args) => demo::run(args),
         // jink:dispatch
     }
 }

@@ -56,8 +56,13 @@ pub struct ServeArgs {
 
 /// Initialises logging to stderr (stdout carries only the "listening" line).
 pub fn init_logging(format: LogFormat) {
+    init_logging_with(format, "info,sqlx=warn");
+}
+
+/// Initialises logging to stderr at `default_filter` unless `RUST_LOG` says otherwise.
+pub fn init_logging_with(format: LogFormat, default_filter: &str) {
     let filter =
-        EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new("info,sqlx=warn"));
+        EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(default_filter));
     // Colour escapes only for a person at a terminal: log files and journald get plain text.
     let builder = tracing_subscriber::fmt()
         .with_env_filter(filter)

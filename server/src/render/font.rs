@@ -1,5 +1,5 @@
 //! A 3x5 pixel font of the characters the pictures' labels use (digits, `.`, `+`, `-`,
-//! `s`, `t`); anything else draws as a blank.
+//! `:`, `s`, `t`, `p`, `U`, `T`, `C`); anything else draws as a blank.
 
 /// The glyph of `c`: five rows, top first, each three bits, the leftmost pixel the highest.
 pub fn glyph(c: char) -> [u8; 5] {
@@ -19,6 +19,11 @@ pub fn glyph(c: char) -> [u8; 5] {
         '-' => [0b000, 0b000, 0b111, 0b000, 0b000],
         's' => [0b000, 0b011, 0b110, 0b011, 0b110],
         't' => [0b010, 0b111, 0b010, 0b010, 0b011],
+        ':' => [0b000, 0b010, 0b000, 0b010, 0b000],
+        'U' => [0b101, 0b101, 0b101, 0b101, 0b111],
+        'T' => [0b111, 0b010, 0b010, 0b010, 0b010],
+        'C' => [0b111, 0b100, 0b100, 0b100, 0b111],
+        'p' => [0b000, 0b111, 0b101, 0b111, 0b100],
         _ => [0; 5],
     }
 }

@@ -25,10 +25,22 @@ pub struct Mover {
     pub radius_m: f64,
 }
 
+/// The aircraft and the current plan, drawn over the map, and the slice's clock time.
+#[derive(Debug, Clone, Default)]
+pub struct Overlay {
+    /// The aircraft's newest position (ENU metres) and compass heading (degrees).
+    pub aircraft: Option<([f64; 2], f64)>,
+    /// The current plan from the item before the one flown toward: each item's position
+    /// (ENU metres) and whether the planner inserted it (an avoid waypoint).
+    pub plan: Vec<([f64; 2], bool)>,
+    /// The slice's time, Unix seconds, drawn as UTC (None: not drawn).
+    pub t_s: Option<f64>,
+}
+
 /// Width of the legend panel right of the map, pixels.
 pub const LEGEND_W_PX: u32 = 72;
 /// Legend colour bar: left edge (from the panel's left), width, top and height, pixels.
-pub const LEGEND_BAR: (u32, u32, u32, u32) = (8, 16, 40, 200);
+pub const LEGEND_BAR: (u32, u32, u32, u32) = (8, 16, 54, 200);
 /// The map's pixels per cell, for a slice of `width` x `height` cells: the map is at most
 /// about 900 pixels on its longer side, 1 to 8 pixels per cell.
 pub fn pixels_per_cell(width: usize, height: usize) -> u32 {
@@ -65,6 +77,12 @@ pub mod colour {
     pub const CYLINDER: [u8; 3] = [20, 20, 20];
     /// Moving obstacles.
     pub const MOVER: [u8; 3] = [200, 0, 200];
+    /// The current plan's legs.
+    pub const PLAN: [u8; 3] = [0, 110, 0];
+    /// Avoid waypoints of the current plan.
+    pub const AVOID: [u8; 3] = [192, 86, 0];
+    /// The aircraft.
+    pub const AIRCRAFT: [u8; 3] = [10, 61, 145];
     /// The 100 m grid.
     pub const GRID: [u8; 3] = [225, 225, 225];
     /// Scale bar, north arrow, labels.
@@ -76,6 +94,22 @@ fn paint(c: [u8; 3]) -> Paint<'static> {
     p.set_color_rgba8(c[0], c[1], c[2], 255);
     p.anti_alias = true;
     p
+}
+
+/// The path through `pts` in order, closed when `close` (None with fewer than two points).
+fn path_through(pts: &[(f32, f32)], close: bool) -> Option<tiny_skia::Path> {
+    let mut pb = PathBuilder::new();
+    for (i, &(x, y)) in pts.iter().enumerate() {
+        if i == 0 {
+            pb.move_to(x, y);
+        } else {
+            pb.line_to(x, y);
+        }
+    }
+    if close {
+        pb.close();
+    }
+    pb.finish()
 }
 
 /// The canvas: a pixmap and the affine map from ENU metres to its pixels.
@@ -94,18 +128,7 @@ impl Canvas {
     }
 
     fn polyline(&mut self, pts: &[(f32, f32)], close: bool, c: [u8; 3], width: f32) {
-        let mut pb = PathBuilder::new();
-        for (i, &(x, y)) in pts.iter().enumerate() {
-            if i == 0 {
-                pb.move_to(x, y);
-            } else {
-                pb.line_to(x, y);
-            }
-        }
-        if close {
-            pb.close();
-        }
-        if let Some(path) = pb.finish() {
+        if let Some(path) = path_through(pts, close) {
             let stroke = Stroke {
                 width,
                 ..Stroke::default()
@@ -135,6 +158,18 @@ impl Canvas {
                 Transform::identity(),
                 None,
             ),
+        }
+    }
+
+    fn polygon(&mut self, pts: &[(f32, f32)], c: [u8; 3]) {
+        if let Some(path) = path_through(pts, true) {
+            self.pixmap.fill_path(
+                &path,
+                &paint(c),
+                FillRule::Winding,
+                Transform::identity(),
+                None,
+            );
         }
     }
 
@@ -170,9 +205,11 @@ impl Canvas {
 /// Draws `slice` as a PNG, north up: the risk heatmap ([`heat`]) on a light 100 m grid,
 /// the fly zones, waypoints and legs, the stationary cylinders, the moving obstacles at
 /// their fitted positions (a disc, a circle of their radius and a line 10 s along their
-/// velocity), a 100 m scale bar, a north arrow, and right of the map a legend panel: the
-/// slice's time (`t+Ns`, seconds after the map's anchor) above the colour bar
-/// (probability 1 at the top, 0 at the bottom).
+/// velocity), the current plan (its legs dark green, avoid waypoints orange diamonds), the
+/// aircraft (a blue arrow along its heading), a 100 m scale bar, a north arrow, and right
+/// of the map a legend panel: the slice's time (`t+Ns`, seconds after the map's anchor,
+/// and its UTC clock time) above the colour bar (probability 1 at the top, 0 at the
+/// bottom).
 ///
 /// The map is `width x height` cells at [`pixels_per_cell`]; the legend panel adds
 /// [`LEGEND_W_PX`] on the right.
@@ -184,6 +221,7 @@ pub fn risk_png(
     frame: &LocalFrame,
     mission: &Mission,
     movers: &[Mover],
+    overlay: &Overlay,
     t_ahead_s: f64,
 ) -> Result<Vec<u8>, png::EncodingError> {
     let s = pixels_per_cell(slice.width, slice.height);
@@ -222,24 +260,17 @@ pub fn risk_png(
         cv.polyline(&[(0.0, y), (map_w as f32, y)], false, colour::GRID, 1.0);
         gy += 100.0;
     }
-    // Risk cells, row 0 southernmost.
+    // Risk cells.
     {
         let stride = w as usize;
         let pixels = cv.pixmap.pixels_mut();
-        for row in 0..slice.height {
-            for col in 0..slice.width {
-                let p = slice.data[row * slice.width + col];
-                if p <= 0.005 {
-                    continue;
-                }
-                let [r, g, b] = heat(p);
-                let c = PremultipliedColorU8::from_rgba(r, g, b, 255)
-                    .expect("opaque colours are valid premultiplied colours");
-                let y0 = (slice.height - 1 - row) as u32 * s;
-                for y in y0..y0 + s {
-                    let start = y as usize * stride + (col as u32 * s) as usize;
-                    pixels[start..start + s as usize].fill(c);
-                }
+        for (image_row, col, [r, g, b]) in risk_cells(slice) {
+            let c = PremultipliedColorU8::from_rgba(r, g, b, 255)
+                .expect("opaque colours are valid premultiplied colours");
+            let y0 = image_row as u32 * s;
+            for y in y0..y0 + s {
+                let start = y as usize * stride + (col as u32 * s) as usize;
+                pixels[start..start + s as usize].fill(c);
             }
         }
     }
@@ -273,6 +304,24 @@ pub fn risk_png(
         let tip = cv.px([m.p_m[0] + 10.0 * m.v_mps[0], m.p_m[1] + 10.0 * m.v_mps[1]]);
         cv.polyline(&[c, tip], false, colour::MOVER, 2.0);
     }
+    let plan: Vec<(f32, f32)> = overlay.plan.iter().map(|(p, _)| cv.px(*p)).collect();
+    cv.polyline(&plan, false, colour::PLAN, 3.0);
+    for (&(x, y), (_, avoid)) in plan.iter().zip(&overlay.plan) {
+        if *avoid {
+            cv.polygon(
+                &[(x, y - 7.0), (x + 7.0, y), (x, y + 7.0), (x - 7.0, y)],
+                colour::AVOID,
+            );
+        }
+    }
+    if let Some((p, heading_deg)) = overlay.aircraft {
+        let (x, y) = cv.px(p);
+        let (s, c) = (heading_deg.to_radians() as f32).sin_cos();
+        // Compass heading: x east = sin, y south (pixels down) = -cos.
+        let at = |fwd: f32, right: f32| (x + fwd * s + right * c, y - fwd * c + right * s);
+        let arrow = [at(14.0, 0.0), at(-9.0, 9.0), at(-4.0, 0.0), at(-9.0, -9.0)];
+        cv.polygon(&arrow, colour::AIRCRAFT);
+    }
     // 100 m scale bar, bottom left.
     let y = map_h as f32 - 12.0;
     let xe = 10.0 + 100.0 * px_per_m;
@@ -288,12 +337,12 @@ pub fn risk_png(
         colour::INK,
         2.0,
     );
-    draw_legend(&mut cv, map_w, t_ahead_s);
+    draw_legend(&mut cv, map_w, t_ahead_s, overlay.t_s);
     encode(&cv.pixmap)
 }
 
 /// The legend panel right of the map: the time label, the colour bar with its ticks.
-fn draw_legend(cv: &mut Canvas, map_w: u32, t_ahead_s: f64) {
+fn draw_legend(cv: &mut Canvas, map_w: u32, t_ahead_s: f64, t_s: Option<f64>) {
     let x0 = map_w as f32;
     cv.polyline(
         &[(x0 + 0.5, 0.0), (x0 + 0.5, cv.map_h as f32)],
@@ -307,6 +356,17 @@ fn draw_legend(cv: &mut Canvas, map_w: u32, t_ahead_s: f64) {
         &format!("t+{}s", t_ahead_s.round()),
         colour::INK,
     );
+    if let Some(t) = t_s {
+        let day_s = t.rem_euclid(86_400.0).floor() as u32;
+        let hms = format!(
+            "{:02}:{:02}:{:02}",
+            day_s / 3600,
+            day_s / 60 % 60,
+            day_s % 60
+        );
+        cv.text(x0 + 4.0, 22.0, &hms, colour::INK);
+        cv.text(x0 + 6.0, 36.0, "UTC", colour::INK);
+    }
     let (bx, bw, by, bh) = LEGEND_BAR;
     let (bx, by) = (x0 + bx as f32, by as f32);
     for i in 0..bh {
@@ -337,15 +397,47 @@ fn draw_legend(cv: &mut Canvas, map_w: u32, t_ahead_s: f64) {
     }
 }
 
+/// The risk layer alone, one pixel per cell, north up: [`heat`] colours, transparent
+/// where the probability is at most 0.005 (what the operator's page lays under its
+/// drawing; the same colours as [`risk_png`]).
+///
+/// # Errors
+/// PNG encoding failed.
+pub fn risk_layer_png(slice: &predictor::SliceView) -> Result<Vec<u8>, png::EncodingError> {
+    let (w, h) = (slice.width.max(1), slice.height.max(1));
+    let mut rgba = vec![0u8; w * h * 4];
+    for (image_row, col, [r, g, b]) in risk_cells(slice) {
+        let i = (image_row * w + col) * 4;
+        rgba[i..i + 4].copy_from_slice(&[r, g, b, 255]);
+    }
+    encode_rgba(w as u32, h as u32, &rgba)
+}
+
+/// The cells whose probability is above 0.005, as `(image row, column, heat colour)`:
+/// image rows run north to south (row 0 northernmost), the slice's rows south to north.
+fn risk_cells(slice: &predictor::SliceView) -> impl Iterator<Item = (usize, usize, [u8; 3])> + '_ {
+    (0..slice.height).flat_map(move |row| {
+        (0..slice.width).filter_map(move |col| {
+            let p = slice.data[row * slice.width + col];
+            (p > 0.005).then(|| (slice.height - 1 - row, col, heat(p)))
+        })
+    })
+}
+
 /// Encodes an opaque pixmap as an 8-bit RGBA PNG (premultiplied = straight when opaque).
 fn encode(pixmap: &Pixmap) -> Result<Vec<u8>, png::EncodingError> {
+    encode_rgba(pixmap.width(), pixmap.height(), pixmap.data())
+}
+
+/// Encodes straight 8-bit RGBA pixels, rows top first, as a PNG.
+fn encode_rgba(width: u32, height: u32, rgba: &[u8]) -> Result<Vec<u8>, png::EncodingError> {
     let mut out = Vec::new();
     {
-        let mut enc = png::Encoder::new(&mut out, pixmap.width(), pixmap.height());
+        let mut enc = png::Encoder::new(&mut out, width, height);
         enc.set_color(png::ColorType::Rgba);
         enc.set_depth(png::BitDepth::Eight);
         let mut writer = enc.write_header()?;
-        writer.write_image_data(pixmap.data())?;
+        writer.write_image_data(rgba)?;
     }
     Ok(out)
 }
@@ -399,7 +491,18 @@ mod tests {
             v_mps: [0.0, 0.0],
             radius_m: 20.0,
         }];
-        let png = risk_png(&slice, &mission.frame(), &mission, &movers, 5.0).unwrap();
+        // The aircraft at (-200, -100) m heading east; the plan from (-200, -100) m through
+        // an avoid waypoint at (0, -150) m to (200, -100) m.
+        let overlay = Overlay {
+            aircraft: Some(([-200.0, -100.0], 90.0)),
+            plan: vec![
+                ([-200.0, -100.0], false),
+                ([0.0, -150.0], true),
+                ([200.0, -100.0], false),
+            ],
+            t_s: Some(1_700_000_000.0 + 3661.0),
+        };
+        let png = risk_png(&slice, &mission.frame(), &mission, &movers, &overlay, 5.0).unwrap();
         let img = decode(&png);
         assert_eq!(pixels_per_cell(width, height), 8);
         assert_eq!((img.0, img.1), (400 + LEGEND_W_PX, 320));
@@ -414,6 +517,14 @@ mod tests {
         assert_eq!(rgb(&img, 104, 80), colour::MOVER);
         // Between the disc and the circle: nothing.
         assert_eq!(rgb(&img, 114, 86), [255, 255, 255]);
+        // The aircraft: x (-200 + 250) * 0.8 = 40, y 320 - 100 * 0.8 = 240; its nose points
+        // east (ahead of the centre), its tail notch leaves the point behind it clear.
+        assert_eq!(rgb(&img, 44, 240), colour::AIRCRAFT);
+        assert_ne!(rgb(&img, 34, 240), colour::AIRCRAFT);
+        // The avoid waypoint's diamond: x 250 * 0.8 = 200, y 320 - 50 * 0.8 = 280.
+        assert_eq!(rgb(&img, 200, 282), colour::AVOID);
+        // The plan's leg from it to the last item, halfway: (100, -125) m -> (280, 260).
+        assert_eq!(rgb(&img, 280, 260), colour::PLAN);
         // The legend bar: dark red at the top, pale near the bottom, the time label above.
         let (bx, _, by, bh) = LEGEND_BAR;
         let top = rgb(&img, 400 + bx + 8, by + 2);
@@ -428,6 +539,39 @@ mod tests {
             label_ink > 20,
             "the time label is drawn: {label_ink} ink pixels"
         );
+        // 1_700_003_661 s is 23:14:21 UTC: eight characters of clock time under it.
+        let clock_ink = (400..img.0)
+            .flat_map(|x| (22..32).map(move |y| (x, y)))
+            .filter(|&(x, y)| rgb(&img, x, y) == colour::INK)
+            .count();
+        assert!(clock_ink > 60, "the clock time is drawn: {clock_ink} ink pixels");
+    }
+
+    #[test]
+    fn the_risk_layer_has_one_pixel_per_cell_north_up_and_is_clear_without_risk() {
+        let (width, height) = (4, 3);
+        let mut data = vec![0.0f32; width * height];
+        // Row 0 is the southernmost: its cell 1 is the image's bottom row.
+        data[1] = 1.0;
+        data[2 * width + 3] = 0.25;
+        let slice = predictor::SliceView {
+            t_s: 0.0,
+            origin_m: [0.0, 0.0],
+            cell_m: 10.0,
+            width,
+            height,
+            data,
+        };
+        let img = decode(&risk_layer_png(&slice).unwrap());
+        assert_eq!((img.0, img.1), (4, 3));
+        let px = |x: u32, y: u32| {
+            let i = ((y * img.0 + x) * 4) as usize;
+            [img.2[i], img.2[i + 1], img.2[i + 2], img.2[i + 3]]
+        };
+        assert_eq!(px(1, 2), [170, 0, 0, 255]);
+        assert_eq!(px(3, 0), [255, 140, 0, 255]);
+        assert_eq!(px(0, 0)[3], 0, "no risk: transparent");
+        assert_eq!(px(1, 0)[3], 0);
     }
 
     #[test]

@@ -20,7 +20,7 @@ both_stores!(
 const T0: f64 = 1_700_000_000.0;
 
 /// The Webster mission with [`webster_flight_on`]'s traffic.
-async fn webster_flight(app: &App, secs: u32) -> String {
+pub(crate) async fn webster_flight(app: &App, secs: u32) -> String {
     let id = app.create_webster_mission().await;
     webster_flight_on(app, &id, secs).await;
     id

@@ -7,6 +7,7 @@ mod durability;
 mod errors;
 mod live;
 mod missions;
+mod operator;
 mod plans;
 mod predictor;
 mod reactive;

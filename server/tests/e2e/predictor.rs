@@ -161,13 +161,14 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
         .filter(|c| c[0] >= 170 && c[2] <= 170 && *c != [250, 250, 250] && *c != [200, 0, 200])
         .count();
     assert!(heat_pixels > 0, "cell {row},{col} is not drawn as risk");
-    // The legend's colour bar: dark red (probability 1) at the top, pale yellow near 0.
-    let top = pixel(&img, map_w + 16, 42);
+    // The legend's colour bar (y 54 to 254, under the time labels): dark red
+    // (probability 1) at the top, pale yellow near 0.
+    let top = pixel(&img, map_w + 16, 56);
     assert!(
         (160..=180).contains(&top[0]) && top[1] < 20 && top[2] < 20,
         "{top:?}"
     );
-    let bottom = pixel(&img, map_w + 16, 236);
+    let bottom = pixel(&img, map_w + 16, 250);
     assert!(bottom[0] == 255 && bottom[1] > 200, "{bottom:?}");
     // The older `?format=png` answers 303 to the PNG (reqwest follows it).
     let old = app

@@ -2,8 +2,9 @@
 //! to it.
 
 use std::io::{BufRead, BufReader};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
 use std::time::Duration;
 
 use serde_json::Value;
@@ -30,6 +31,8 @@ pub struct App {
     pg_db: Option<String>,
     dir: tempfile::TempDir,
     extra_args: Vec<String>,
+    /// `--bind` of the next start (None: any free port).
+    bind: Option<String>,
 }
 
 pub fn fixture(name: &str) -> Value {
@@ -95,32 +98,20 @@ impl App {
             pg_db,
             dir,
             extra_args: extra_args.iter().map(|s| s.to_string()).collect(),
+            bind: None,
         };
         app.start();
         Some(app)
     }
 
     fn start(&mut self) {
-        let log = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(self.dir.path().join("jink.log"))
-            .unwrap();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
-            .arg("serve")
-            .args(["--bind", "127.0.0.1:0", "--database-url", &self.db_url])
-            .args(&self.extra_args)
-            .env("RUST_LOG", "warn")
-            .current_dir(self.dir.path())
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::from(log))
-            .spawn()
-            .expect("start jink");
-        let stdout = child.stdout.take().unwrap();
-        let (tx, rx) = std::sync::mpsc::channel();
+        let bind = self.bind.clone().unwrap_or_else(|| "127.0.0.1:0".into());
+        let mut args = vec!["serve", "--bind", &bind, "--database-url", &self.db_url];
+        args.extend(self.extra_args.iter().map(String::as_str));
+        let (mut child, lines) = spawn_jink(&args, self.dir.path(), "jink.log");
+        let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            for line in lines {
                 if let Some(addr) = line.strip_prefix("jink listening on ") {
                     let _ = tx.send(addr.to_string());
                 }
@@ -149,6 +140,7 @@ impl App {
             pg_db: None,
             dir: tempfile::tempdir().unwrap(),
             extra_args: self.extra_args.clone(),
+            bind: None,
         };
         app.start();
         app
@@ -162,6 +154,14 @@ impl App {
             c.wait().unwrap();
         }
         self.start();
+    }
+
+    /// [`Self::kill9_and_restart`] on the same address, so that clients (a browser page)
+    /// find the service where it was.
+    #[allow(dead_code)] // tests/browser.rs
+    pub fn kill9_and_restart_at_the_same_address(&mut self) {
+        self.bind = Some(self.base.trim_start_matches("http://").to_string());
+        self.kill9_and_restart();
     }
 
     pub fn url(&self, path: &str) -> String {
@@ -275,6 +275,35 @@ impl Drop for App {
             .join();
         }
     }
+}
+
+/// Starts `jink ARGS` in `dir` with its stderr appended to `dir/LOG`; the iterator yields
+/// its stdout lines.
+pub fn spawn_jink(args: &[&str], dir: &Path, log: &str) -> (Child, mpsc::IntoIter<String>) {
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(dir.join(log))
+        .unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::from(log))
+        .spawn()
+        .expect("start jink");
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    (child, rx.into_iter())
 }
 
 async fn admin_sql(sql: &str) -> Result<(), String> {
