@@ -52,6 +52,9 @@ pub mod snapshot;
 
 pub use snapshot::{Snapshot, map_config};
 
+/// Maps of replaced snapshots kept for their allocation (see [`LiveStates::recycle`]).
+const SPARE_MAPS: usize = 2;
+
 /// Feeding more rows than this at once runs on the CPU pool instead of the runtime.
 const INLINE_FEED_ROWS: usize = 256;
 
@@ -295,12 +298,14 @@ impl MissionLive {
             return Ok(cur);
         }
         let mission = self.mission.clone();
+        let spare = state.live.take_spare();
         let snap = Arc::new(
             state
-                .run_cpu(move || Snapshot::build(&mission, seq, predictor))
+                .run_cpu(move || Snapshot::build_reusing(&mission, seq, predictor, spare))
                 .await?,
         );
-        *lock(&self.published) = snap.clone();
+        let old = std::mem::replace(&mut *lock(&self.published), snap.clone());
+        state.live.recycle(old);
         Ok(snap)
     }
 }
@@ -309,6 +314,9 @@ impl MissionLive {
 #[derive(Debug)]
 pub struct LiveStates {
     cfg: LiveConfig,
+    /// Maps of replaced snapshots nobody reads any more, whose allocations the next builds
+    /// reuse (at most [`SPARE_MAPS`]).
+    spare_maps: Mutex<Vec<predictor::RiskMap>>,
     missions: Mutex<HashMap<MissionId, Arc<MissionLive>>>,
     last_sweep: Mutex<Instant>,
 }
@@ -324,6 +332,7 @@ impl LiveStates {
     pub fn new(cfg: LiveConfig) -> Self {
         Self {
             cfg,
+            spare_maps: Mutex::new(Vec::new()),
             missions: Mutex::new(HashMap::new()),
             last_sweep: Mutex::new(Instant::now()),
         }
@@ -387,6 +396,24 @@ impl LiveStates {
         mission: &Mission,
     ) -> Result<PredictorView, ApiError> {
         self.entry(mission).predictor_view(state).await
+    }
+
+    fn take_spare(&self) -> Option<predictor::RiskMap> {
+        lock(&self.spare_maps).pop()
+    }
+
+    /// Keeps the map of a replaced snapshot for its allocation, when nothing else holds it.
+    fn recycle(&self, old: Arc<Snapshot>) {
+        let map = Arc::try_unwrap(old)
+            .ok()
+            .and_then(|s| s.map)
+            .and_then(|m| Arc::try_unwrap(m).ok());
+        let mut spare = lock(&self.spare_maps);
+        if let Some(m) = map
+            && spare.len() < SPARE_MAPS
+        {
+            spare.push(m);
+        }
     }
 
     /// Drops the maps of the least recently read missions beyond
