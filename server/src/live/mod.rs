@@ -288,6 +288,7 @@ impl MissionLive {
         if cur.seq >= self.applied.load(Ordering::Acquire) {
             return Ok(cur);
         }
+        drop(cur);
         let _building = self.build.lock().await;
         let cur = self.published();
         let (predictor, seq) = {
@@ -297,6 +298,8 @@ impl MissionLive {
         if cur.seq >= seq {
             return Ok(cur);
         }
+        // Not held here, so that its map can be recycled below.
+        drop(cur);
         let mission = self.mission.clone();
         let spare = state.live.take_spare();
         let snap = Arc::new(
