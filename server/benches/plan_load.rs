@@ -8,7 +8,9 @@
 //! (seeded, default options) at 1 Hz for `JINK_PLAN_SECONDS` (default 20), then at 5 Hz
 //! for as long. Then `JINK_PLAN_MISSIONS` (default 100) missions each get 30 s of 10
 //! obstacles at 5 Hz (posted as fast as accepted) and one read of their obstacles, which
-//! makes them live, and the server's resident memory (VmRSS) is reported.
+//! makes them live (predictor, no risk map), and the server's resident memory (VmRSS) is
+//! reported; then each gets one plan (which builds its risk map; the server keeps at most
+//! `--live-max-maps` of them) and VmRSS is reported again.
 //! `JINK_PLAN_DATABASE_URL` overrides the store (default: a fresh SQLite file).
 
 mod support;
@@ -198,6 +200,21 @@ fn main() {
         println!(
             "  {} live missions x 10 obstacles (150 snapshots each): server VmRSS {:.0} MB (before them {rss0:.0} MB)",
             missions + 1,
+            rss_mb(pid)
+        );
+        let r = client.get(format!("{base}/api/v1/missions")).send().await.unwrap();
+        let all: Vec<Value> = r.json().await.unwrap();
+        for m in &all {
+            let r = client
+                .post(format!("{base}/api/v1/missions/{}/plan", m["id"].as_str().unwrap()))
+                .json(&json!({"seed": 7, "current_index": 1}))
+                .send()
+                .await
+                .unwrap();
+            assert_eq!(r.status(), 201);
+        }
+        println!(
+            "  the same after one plan each (risk maps built; at most --live-max-maps kept): server VmRSS {:.0} MB",
             rss_mb(pid)
         );
     });

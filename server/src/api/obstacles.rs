@@ -178,7 +178,7 @@ async fn list_obstacles(
         .get_mission(&id)
         .await?
         .ok_or_else(|| ApiError::not_found("mission", &id))?;
-    let snap = state.live.snapshot(&state, &mission).await?;
+    let snap = state.live.predictor_view(&state, &mission).await?;
     let mut out: Vec<ObstacleOut> = {
         snap.predictor
             .obstacles()

@@ -49,6 +49,16 @@ pub struct ServeArgs {
     #[arg(long, env = "JINK_LIVE_MAX_MISSIONS", default_value_t = 1000)]
     pub live_max_missions: usize,
 
+    /// A mission's risk map not read by a plan or `GET .../risk` for this many seconds is
+    /// dropped and no longer rebuilt after each observation batch (the predictor stays).
+    #[arg(long, env = "JINK_LIVE_MAP_IDLE_S", default_value_t = 10)]
+    pub live_map_idle_s: u64,
+
+    /// At most this many missions keep a risk map in memory (about 4 MB each); the least
+    /// recently read is dropped first and rebuilt when next needed.
+    #[arg(long, env = "JINK_LIVE_MAX_MAPS", default_value_t = 32)]
+    pub live_max_maps: usize,
+
     /// Log format on stderr. Levels come from `RUST_LOG` (default `info`).
     #[arg(long, env = "JINK_LOG_FORMAT", value_enum, default_value = "text")]
     pub log_format: LogFormat,
@@ -102,6 +112,8 @@ pub fn run(args: ServeArgs) -> ExitCode {
                 live: crate::live::LiveConfig {
                     idle: std::time::Duration::from_secs(args.live_idle_s.max(1)),
                     max_missions: args.live_max_missions.max(1),
+                    map_idle: std::time::Duration::from_secs(args.live_map_idle_s.max(1)),
+                    max_maps: args.live_max_maps.max(1),
                 },
             },
         );

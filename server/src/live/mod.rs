@@ -7,8 +7,16 @@
 //!   writer lock (an async mutex per mission); there is no lock across missions except the
 //!   registry's, held only to look an entry up.
 //! - **Ingest never waits on a plan**: the observation handler feeds the committed batch
-//!   (microseconds per row) and returns; the map is rebuilt by a background task. Plans
-//!   read the published snapshot and never hold the writer lock while computing.
+//!   (microseconds per row) and returns. Plans read the published snapshot and never hold
+//!   the writer lock while computing.
+//! - **Maps only where they are read**: a risk map is built for plans and `GET .../risk`
+//!   (which mark the mission's map as in use); `GET .../obstacles` reads the predictor
+//!   alone ([`PredictorView`]). While a mission's map is in use (read within
+//!   [`LiveConfig::map_idle`]), each batch rebuilds it in the background, so the next plan
+//!   finds it ready; a map unread for longer is dropped (the predictor stays) and no longer
+//!   rebuilt, and at most [`LiveConfig::max_maps`] maps are kept (the least recently read
+//!   dropped first). A dropped map is rebuilt by the next read that needs it, bit for bit
+//!   (it is a pure function of the predictor).
 //! - **No half-applied batch**: the writer publishes whole batches (`seq` advances by a
 //!   batch at a time); a snapshot holds an `Arc` of the predictor as of that `seq`. The
 //!   writer feeds through `Arc::make_mut`, so a batch arriving while a snapshot holds the
@@ -19,7 +27,8 @@
 //!   replica never plans on older data than another replica acknowledged.
 //! - **Rebuilt on first use** from the store (all batches in feeding order), so a restart
 //!   loses nothing; **evicted** after `idle` without use, and the least recently used
-//!   beyond `max_missions`, so memory stays bounded.
+//!   beyond `max_missions`, so memory stays bounded (maps, the large part, go earlier: see
+//!   above).
 //! - **Replicas** (PostgreSQL): [`notify`] listens to the batches other replicas commit
 //!   and catches the cached missions up.
 
@@ -43,6 +52,9 @@ pub mod snapshot;
 
 pub use snapshot::{Snapshot, map_config};
 
+/// Maps of replaced snapshots kept for their allocation (see [`LiveStates::recycle`]).
+const SPARE_MAPS: usize = 2;
+
 /// Feeding more rows than this at once runs on the CPU pool instead of the runtime.
 const INLINE_FEED_ROWS: usize = 256;
 
@@ -53,6 +65,11 @@ pub struct LiveConfig {
     pub idle: Duration,
     /// At most this many missions are live; the least recently used goes first.
     pub max_missions: usize,
+    /// A mission's risk map not read (by a plan or `GET .../risk`) for this long is
+    /// dropped and no longer rebuilt in the background; its predictor stays live.
+    pub map_idle: Duration,
+    /// At most this many missions keep a risk map; the least recently read goes first.
+    pub max_maps: usize,
 }
 
 impl Default for LiveConfig {
@@ -60,8 +77,22 @@ impl Default for LiveConfig {
         Self {
             idle: Duration::from_secs(600),
             max_missions: 1000,
+            map_idle: Duration::from_secs(10),
+            max_maps: 32,
         }
     }
+}
+
+/// A mission's predictor as of a batch, without a risk map (what `GET .../obstacles`
+/// reads).
+#[derive(Debug, Clone)]
+pub struct PredictorView {
+    /// Observation batches applied: every row of batches `<= seq`, none after.
+    pub seq: i64,
+    /// The predictor (tracks, estimates, stages, stage history).
+    pub predictor: Arc<Predictor>,
+    /// The mission's ENU frame.
+    pub frame: crate::geodesy::LocalFrame,
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -82,9 +113,13 @@ pub struct MissionLive {
     loaded: AtomicBool,
     /// Newest batch applied by the writer (mirrors `Writer::applied` for lock-free reads).
     applied: AtomicI64,
+    /// The newest snapshot with its map, or the empty one (seq -1) after the map was
+    /// dropped.
     published: Mutex<Arc<Snapshot>>,
     build: tokio::sync::Mutex<()>,
     last_used: Mutex<Instant>,
+    /// Last read of the map (None: not read since it was dropped).
+    map_used: Mutex<Option<Instant>>,
 }
 
 impl std::fmt::Debug for MissionLive {
@@ -110,7 +145,26 @@ impl MissionLive {
             published: Mutex::new(Arc::new(empty)),
             build: tokio::sync::Mutex::new(()),
             last_used: Mutex::new(Instant::now()),
+            map_used: Mutex::new(None),
         }
+    }
+
+    /// True when the map was read within `map_idle` (batches then rebuild it at once).
+    fn map_in_use(&self, now: Instant, map_idle: Duration) -> bool {
+        lock(&self.map_used).is_some_and(|t| now.duration_since(t) < map_idle)
+    }
+
+    /// Drops the map (the predictor stays); the next read that needs one rebuilds it.
+    fn drop_map(&self) {
+        *lock(&self.map_used) = None;
+        let mut p = lock(&self.published);
+        if p.map.is_some() || p.seq >= 0 {
+            *p = Arc::new(Snapshot::empty(&self.mission));
+        }
+    }
+
+    fn has_map(&self) -> bool {
+        lock(&self.published).seq >= 0
     }
 
     /// The mission this state belongs to.
@@ -196,16 +250,45 @@ impl MissionLive {
     /// # Errors
     /// Database failures while catching up; a job panic.
     pub async fn snapshot(&self, state: &AppState) -> Result<Arc<Snapshot>, ApiError> {
+        let now = Instant::now();
+        *lock(&self.last_used) = now;
+        *lock(&self.map_used) = Some(now);
+        self.current(state).await?;
+        self.build_current(state).await
+    }
+
+    /// The predictor with every batch applied so far (read your writes), without a map.
+    ///
+    /// # Errors
+    /// Database failures while catching up; 404 when the mission was deleted meanwhile.
+    pub async fn predictor_view(&self, state: &AppState) -> Result<PredictorView, ApiError> {
         *lock(&self.last_used) = Instant::now();
+        self.current(state).await?;
+        let w = self.writer.lock().await;
+        Ok(PredictorView {
+            seq: w.applied,
+            predictor: w.predictor.clone(),
+            frame: self.mission.frame(),
+        })
+    }
+
+    /// Loads the mission on first use, and on PostgreSQL catches up with the store.
+    async fn current(&self, state: &AppState) -> Result<(), ApiError> {
         if (!self.loaded.load(Ordering::Acquire) || state.store.backend() == Backend::Postgres)
             && !self.catch_up(state, None).await?
         {
             return Err(ApiError::not_found("mission", self.mission.id.as_str()));
         }
+        Ok(())
+    }
+
+    /// Publishes (or waits for) the snapshot of the batches applied so far.
+    async fn build_current(&self, state: &AppState) -> Result<Arc<Snapshot>, ApiError> {
         let cur = self.published();
         if cur.seq >= self.applied.load(Ordering::Acquire) {
             return Ok(cur);
         }
+        drop(cur);
         let _building = self.build.lock().await;
         let cur = self.published();
         let (predictor, seq) = {
@@ -215,13 +298,17 @@ impl MissionLive {
         if cur.seq >= seq {
             return Ok(cur);
         }
+        // Not held here, so that its map can be recycled below.
+        drop(cur);
         let mission = self.mission.clone();
+        let spare = state.live.take_spare();
         let snap = Arc::new(
             state
-                .run_cpu(move || Snapshot::build(&mission, seq, predictor))
+                .run_cpu(move || Snapshot::build_reusing(&mission, seq, predictor, spare))
                 .await?,
         );
-        *lock(&self.published) = snap.clone();
+        let old = std::mem::replace(&mut *lock(&self.published), snap.clone());
+        state.live.recycle(old);
         Ok(snap)
     }
 }
@@ -230,6 +317,9 @@ impl MissionLive {
 #[derive(Debug)]
 pub struct LiveStates {
     cfg: LiveConfig,
+    /// Maps of replaced snapshots nobody reads any more, whose allocations the next builds
+    /// reuse (at most [`SPARE_MAPS`]).
+    spare_maps: Mutex<Vec<predictor::RiskMap>>,
     missions: Mutex<HashMap<MissionId, Arc<MissionLive>>>,
     last_sweep: Mutex<Instant>,
 }
@@ -245,6 +335,7 @@ impl LiveStates {
     pub fn new(cfg: LiveConfig) -> Self {
         Self {
             cfg,
+            spare_maps: Mutex::new(Vec::new()),
             missions: Mutex::new(HashMap::new()),
             last_sweep: Mutex::new(Instant::now()),
         }
@@ -291,7 +382,59 @@ impl LiveStates {
         state: &AppState,
         mission: &Mission,
     ) -> Result<Arc<Snapshot>, ApiError> {
-        self.entry(mission).snapshot(state).await
+        let live = self.entry(mission);
+        let snap = live.snapshot(state).await?;
+        self.cap_maps(&mission.id);
+        Ok(snap)
+    }
+
+    /// The predictor of `mission` with every batch applied so far, without building a map
+    /// (see [`MissionLive::predictor_view`]).
+    ///
+    /// # Errors
+    /// Database failures; 404 when the mission was deleted meanwhile.
+    pub async fn predictor_view(
+        &self,
+        state: &AppState,
+        mission: &Mission,
+    ) -> Result<PredictorView, ApiError> {
+        self.entry(mission).predictor_view(state).await
+    }
+
+    fn take_spare(&self) -> Option<predictor::RiskMap> {
+        lock(&self.spare_maps).pop()
+    }
+
+    /// Keeps the map of a replaced snapshot for its allocation, when nothing else holds it.
+    fn recycle(&self, old: Arc<Snapshot>) {
+        let map = Arc::try_unwrap(old)
+            .ok()
+            .and_then(|s| s.map)
+            .and_then(|m| Arc::try_unwrap(m).ok());
+        let mut spare = lock(&self.spare_maps);
+        if let Some(m) = map
+            && spare.len() < SPARE_MAPS
+        {
+            spare.push(m);
+        }
+    }
+
+    /// Drops the maps of the least recently read missions beyond
+    /// [`LiveConfig::max_maps`], never `keep`'s.
+    fn cap_maps(&self, keep: &str) {
+        let mut with_map: Vec<(Option<Instant>, Arc<MissionLive>)> = lock(&self.missions)
+            .iter()
+            .filter(|(id, l)| id.as_str() != keep && l.has_map())
+            .map(|(_, l)| (*lock(&l.map_used), l.clone()))
+            .collect();
+        // `keep` holds one of the allowed maps.
+        let allowed = self.cfg.max_maps.saturating_sub(1);
+        if with_map.len() > allowed {
+            with_map.sort_by_key(|(t, _)| *t);
+            for (_, l) in &with_map[..with_map.len() - allowed] {
+                l.drop_map();
+            }
+        }
     }
 
     /// The cached state of a mission, if live.
@@ -299,8 +442,8 @@ impl LiveStates {
         lock(&self.missions).get(mission_id).cloned()
     }
 
-    /// Applies a batch this replica committed, then rebuilds the map in the background
-    /// (the caller does not wait for it).
+    /// Applies a batch this replica committed, then, while the mission's map is in use,
+    /// rebuilds the map in the background (the caller does not wait for it).
     pub async fn apply(&self, state: &AppState, mission_id: &str, batch: &StoredBatch) {
         let Some(live) = self.cached(mission_id) else {
             return;
@@ -311,7 +454,7 @@ impl LiveStates {
             live.loaded.store(false, Ordering::Release);
             return;
         }
-        prebuild(state, live);
+        self.prebuild(state, live);
     }
 
     /// A batch `seq` of `mission_id` was committed (by any replica): catch up if live.
@@ -323,7 +466,7 @@ impl LiveStates {
             return;
         }
         match live.catch_up(state, Some(seq)).await {
-            Ok(_) => prebuild(state, live),
+            Ok(_) => self.prebuild(state, live),
             Err(e) => tracing::warn!(mission = %mission_id, error = %e, "catch-up failed"),
         }
     }
@@ -345,25 +488,124 @@ impl LiveStates {
         lock(&self.missions).remove(mission_id);
     }
 
+    /// Drops missions idle for `idle` and maps unread for `map_idle` (at most every
+    /// quarter of the shorter).
     fn sweep(&self) {
         let now = Instant::now();
         {
             let mut last = lock(&self.last_sweep);
-            if now.duration_since(*last) < (self.cfg.idle / 4).max(Duration::from_millis(100)) {
+            let every = (self.cfg.idle.min(self.cfg.map_idle) / 4).max(Duration::from_millis(100));
+            if now.duration_since(*last) < every {
                 return;
             }
             *last = now;
         }
-        lock(&self.missions).retain(|_, l| now.duration_since(*lock(&l.last_used)) < self.cfg.idle);
+        lock(&self.missions).retain(|_, l| {
+            if l.has_map() && !l.map_in_use(now, self.cfg.map_idle) {
+                l.drop_map();
+            }
+            now.duration_since(*lock(&l.last_used)) < self.cfg.idle
+        });
+    }
+
+    /// While `live`'s map is in use, publishes the snapshot of the batches applied so far,
+    /// off the caller's path.
+    fn prebuild(&self, state: &AppState, live: Arc<MissionLive>) {
+        if !live.map_in_use(Instant::now(), self.cfg.map_idle) {
+            return;
+        }
+        let state = state.clone();
+        tokio::spawn(async move {
+            if let Err(e) = live.build_current(&state).await {
+                tracing::warn!(mission = %live.mission.id, error = %e, "snapshot build failed");
+            }
+        });
     }
 }
 
-/// Publishes the snapshot of the batches applied so far, off the caller's path.
-fn prebuild(state: &AppState, live: Arc<MissionLive>) {
-    let state = state.clone();
-    tokio::spawn(async move {
-        if let Err(e) = live.snapshot(&state).await {
-            tracing::warn!(mission = %live.mission.id, error = %e, "snapshot build failed");
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::Settings;
+    use crate::store::Store;
+
+    /// A SQLite state keeping at most one map, with two Webster missions ("a", "b") of
+    /// three obstacles over 10 s.
+    async fn two_missions(dir: &tempfile::TempDir) -> (AppState, Mission, Mission) {
+        let url = format!("sqlite://{}", dir.path().join("live.sqlite").display());
+        let store = Store::open(&url).await.expect("open");
+        let cfg = LiveConfig {
+            max_maps: 1,
+            ..LiveConfig::default()
+        };
+        let state = AppState::new(
+            store,
+            Settings {
+                live: cfg,
+                ..Settings::default()
+            },
+        );
+        let text = include_str!("../../../tests/fixtures/interop/mission_2021_webster_field.json");
+        let a = wire::domain::read_mission_text(text, "a").expect("fixture");
+        let b = wire::domain::read_mission_text(text, "b").expect("fixture");
+        state
+            .store
+            .insert_missions(&[a.clone(), b.clone()], 0.0)
+            .await
+            .expect("missions");
+        for m in [&a, &b] {
+            for i in 0..50 {
+                let t = 1_700_000_000.0 + 0.2 * f64::from(i);
+                let rows: Vec<ObservationRow> = (0..3)
+                    .map(|k| ObservationRow {
+                        obstacle_id: k.to_string(),
+                        t_s: t,
+                        lat_deg: 38.145 + 0.0001 * f64::from(i) + 0.001 * f64::from(k),
+                        lon_deg: -76.429,
+                        alt_msl_m: 60.0,
+                        radius_m: 20.0,
+                    })
+                    .collect();
+                state
+                    .store
+                    .insert_observations(&m.id, &rows, t)
+                    .await
+                    .expect("insert");
+            }
         }
-    });
+        (state, a, b)
+    }
+
+    fn cells(s: &Snapshot) -> Vec<f32> {
+        let map = s.map.as_ref().expect("map");
+        (0..60)
+            .flat_map(|k| map.slice(map.t0_s() + f64::from(k)).data)
+            .collect()
+    }
+
+    #[tokio::test]
+    async fn maps_are_built_only_for_map_reads_and_at_most_max_maps_are_kept() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (state, a, b) = two_missions(&dir).await;
+        let live = &state.live;
+        // The obstacle list reads the predictor alone: no map is built.
+        let view = live.predictor_view(&state, &a).await.expect("view");
+        assert_eq!((view.seq, view.predictor.obstacles().count()), (50, 3));
+        let la = live.cached(&a.id).expect("live");
+        assert!(!la.has_map());
+        // A map read builds it.
+        let first = live.snapshot(&state, &a).await.expect("snapshot");
+        assert_eq!(first.seq, 50);
+        assert!(la.has_map());
+        // A map of another mission drops the least recently read one (max_maps = 1)...
+        let sb = live.snapshot(&state, &b).await.expect("snapshot");
+        assert!(sb.map.is_some());
+        assert!(!la.has_map());
+        assert!(live.cached(&b.id).expect("live").has_map());
+        // ... and it comes back, the same cells bit for bit, when read again.
+        let again = live.snapshot(&state, &a).await.expect("snapshot");
+        assert!(!Arc::ptr_eq(&first, &again));
+        assert_eq!(again.map_ids, first.map_ids);
+        assert_eq!(cells(&again), cells(&first));
+    }
 }

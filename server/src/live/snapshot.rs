@@ -13,7 +13,7 @@
 
 use std::sync::Arc;
 
-use predictor::{Observation, Predictor, PredictorConfig, RiskMap, RiskMapConfig};
+use predictor::{Observation, Predictor, PredictorConfig, RiskMap, RiskMapConfig, RiskMapError};
 
 use crate::geodesy::LocalFrame;
 use crate::mission::Mission;
@@ -67,6 +67,28 @@ pub fn predictor_config() -> PredictorConfig {
 /// The one live-map rule of server and simulator (anchor, fresh obstacles, full build).
 pub use planner::replan::{build_map, fresh_ids};
 
+/// [`build_map`] into `spare`'s allocation when it has the same configuration (a map
+/// of an earlier snapshot), else into a new map. The cells are the same bit for bit:
+/// re-anchoring sets every cell an obstacle touched back to exactly 1, as in a new map.
+fn build_map_into(
+    spare: Option<RiskMap>,
+    predictor: &Predictor,
+    cfg: &RiskMapConfig,
+    ids: &[String],
+    t0_s: f64,
+) -> Result<RiskMap, RiskMapError> {
+    match spare {
+        Some(mut map) if map.config() == cfg => {
+            map.reset(&[], t0_s);
+            for id in ids {
+                predictor.update_map_obstacle(&mut map, id);
+            }
+            Ok(map)
+        }
+        _ => build_map(predictor, cfg, ids, t0_s),
+    }
+}
+
 /// One mission's live state as of batch `seq`.
 #[derive(Debug, Clone)]
 pub struct Snapshot {
@@ -89,6 +111,18 @@ pub struct Snapshot {
 impl Snapshot {
     /// The snapshot of `predictor` after batch `seq` (CPU work: one full map build).
     pub fn build(mission: &Mission, seq: i64, predictor: Arc<Predictor>) -> Self {
+        Self::build_reusing(mission, seq, predictor, None)
+    }
+
+    /// [`Snapshot::build`], building the map in `spare`'s allocation when its
+    /// configuration fits (the same snapshot, bit for bit; saves allocating and filling
+    /// a map of several MB per batch).
+    pub fn build_reusing(
+        mission: &Mission,
+        seq: i64,
+        predictor: Arc<Predictor>,
+        spare: Option<RiskMap>,
+    ) -> Self {
         let started = std::time::Instant::now();
         let frame = mission.frame();
         let anchor_t_s = predictor.latest_t_s();
@@ -96,15 +130,15 @@ impl Snapshot {
             None => (Vec::new(), None),
             Some(t0) => {
                 let ids = fresh_ids(&predictor, t0 - STALE_AFTER_S);
-                let map =
-                    match build_map(&predictor, &map_config(mission, LIVE_HORIZON_S), &ids, t0) {
-                        Ok(m) => Some(Arc::new(m)),
-                        Err(e) => {
-                            // Plans then build their own map and report the error.
-                            tracing::warn!(mission = %mission.id, error = %e, "no live risk map");
-                            None
-                        }
-                    };
+                let cfg = map_config(mission, LIVE_HORIZON_S);
+                let map = match build_map_into(spare, &predictor, &cfg, &ids, t0) {
+                    Ok(m) => Some(Arc::new(m)),
+                    Err(e) => {
+                        // Plans then build their own map and report the error.
+                        tracing::warn!(mission = %mission.id, error = %e, "no live risk map");
+                        None
+                    }
+                };
                 (ids, map)
             }
         };
@@ -204,6 +238,29 @@ mod tests {
                 .collect::<Vec<_>>()
         };
         assert_eq!(stages(&snap.predictor), stages(&rebuilt.predictor));
+    }
+
+    #[test]
+    fn a_map_built_in_a_spare_allocation_equals_a_new_one() {
+        let m = webster();
+        let frame = m.frame();
+        let all = batches();
+        let mut p = Predictor::new(predictor_config());
+        feed(&mut p, &frame, &all[..60].concat());
+        let old = Snapshot::build(&m, 60, Arc::new(p.clone()));
+        let spare = Arc::try_unwrap(old.map.expect("map")).expect("sole owner");
+        feed(&mut p, &frame, &all[60..].concat());
+        let p = Arc::new(p);
+        let (new, reused) = (
+            Snapshot::build(&m, 100, p.clone()),
+            Snapshot::build_reusing(&m, 100, p, Some(spare)),
+        );
+        let (a, b) = (new.map.expect("map"), reused.map.expect("map"));
+        assert_ne!(a.t0_s(), old.anchor_t_s.expect("anchor"), "re-anchored");
+        for k in 0..=60 {
+            let t = a.t0_s() + f64::from(k);
+            assert_eq!(a.slice(t).data, b.slice(t).data, "slice {k}");
+        }
     }
 
     #[test]

@@ -17,6 +17,7 @@ use crate::mission::Mission;
 use crate::time::{from_us, to_us};
 use wire::ids::MissionId;
 
+pub mod group_commit;
 pub mod observations;
 pub mod plans;
 
@@ -53,6 +54,8 @@ pub struct Store {
     backend: Backend,
     read: AnyPool,
     write: AnyPool,
+    /// SQLite: the group-commit task observation batches go through.
+    group: Option<group_commit::GroupCommit>,
 }
 
 /// Errors opening a store.
@@ -134,14 +137,16 @@ impl Store {
                 (pool.clone(), pool)
             }
         };
-        let store = Self {
+        let mut store = Self {
             backend,
             read,
             write,
+            group: None,
         };
         store.migrate().await?;
         if backend == Backend::Sqlite {
             tokio::spawn(checkpoint_loop(store.read.clone()));
+            store.group = Some(group_commit::GroupCommit::spawn(store.clone()));
         }
         Ok(store)
     }
