@@ -97,6 +97,21 @@ pub(crate) fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// One server-sent event as a client's parser sees it (documentation of the stream's
+/// items: `event` names it, `data` is a JSON document, `retry` the reconnect delay in ms).
+#[derive(utoipa::ToSchema)]
+#[allow(dead_code)]
+struct SseEvent {
+    /// `mission`, `state` or `gone`.
+    event: Option<String>,
+    /// The event's JSON document, as text.
+    data: String,
+    /// Reconnect delay, milliseconds (on the first event).
+    retry: Option<u64>,
+    /// Event id, when set.
+    id: Option<String>,
+}
+
 /// Server-sent events of a mission's live state, for the page.
 ///
 /// `event: mission` (fixed geometry, ENU metres) on connecting, then `event: state`
@@ -106,7 +121,7 @@ pub(crate) fn esc(s: &str) -> String {
 #[utoipa::path(get, path = "/missions/{id}/events", tag = "service",
     params(("id" = String, Path, description = "Mission id")),
     responses(
-        (status = 200, description = "A stream of server-sent events", body = String, content_type = "text/event-stream"),
+        (status = 200, description = "A stream of server-sent events", body = SseEvent, content_type = "text/event-stream"),
         (status = 404, description = "No such mission", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn mission_events(
