@@ -518,7 +518,11 @@ mod tests {
     struct Band;
     impl RiskField for Band {
         fn risk(&self, p: [f64; 2], _t: f64) -> f64 {
-            if (480.0..=520.0).contains(&p[1]) { 0.2 } else { 0.0 }
+            if (480.0..=520.0).contains(&p[1]) {
+                0.2
+            } else {
+                0.0
+            }
         }
     }
 
@@ -536,7 +540,10 @@ mod tests {
         s.p_m = [0.0, -600.0];
         let far = check(&Band, &[], &s, &tail);
         assert!(far.is_clear(0.05), "{far:?}");
-        assert!((far.peak_risk - 0.2).abs() < 1e-12, "the raw peak is still reported");
+        assert!(
+            (far.peak_risk - 0.2).abs() < 1e-12,
+            "the raw peak is still reported"
+        );
         let want = 0.2 * 0.05 / (0.05 + 0.25 * 35.0 / 40.0);
         assert!((far.graded_peak_risk - want).abs() < 0.01, "{far:?}");
         // A far band is still worse than no band at all when lengths are equal.

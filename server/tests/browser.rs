@@ -101,7 +101,10 @@ fn wait_for(tab: &Tab, what: &str, js: &str, within: Duration) -> Value {
         if truthy {
             return v;
         }
-        assert!(Instant::now() < end, "the page did not show {what} within {within:?} ({js} = {v})");
+        assert!(
+            Instant::now() < end,
+            "the page did not show {what} within {within:?} ({js} = {v})"
+        );
         std::thread::sleep(Duration::from_millis(100));
     }
 }
@@ -143,17 +146,32 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
     let dir = tempfile::tempdir().unwrap();
     let (mut demo, mut demo_out) = spawn_jink(
         &[
-            "demo", "--server", &base, "--seed", "3", "--duration", "300", "--obstacles", "10",
+            "demo",
+            "--server",
+            &base,
+            "--seed",
+            "3",
+            "--duration",
+            "300",
+            "--obstacles",
+            "10",
         ],
         dir.path(),
         "demo.log",
     );
     let page_url = demo_out
-        .find_map(|l| l.strip_prefix("jink demo: the live page is ").map(str::to_string))
+        .find_map(|l| {
+            l.strip_prefix("jink demo: the live page is ")
+                .map(str::to_string)
+        })
         .expect("the demo prints the page's URL");
-    assert!(page_url.starts_with(&format!("{base}/missions/")), "{page_url}");
+    assert!(
+        page_url.starts_with(&format!("{base}/missions/")),
+        "{page_url}"
+    );
     let mission_id = page_url.rsplit('/').next().unwrap().to_string();
-    let api = |path: &str| rt.block_on(app.get_json(&format!("/api/v1/missions/{mission_id}{path}")));
+    let api =
+        |path: &str| rt.block_on(app.get_json(&format!("/api/v1/missions/{mission_id}{path}")));
     // The issue's load figure is for 10 obstacles and a 600-point track: 600 older
     // telemetry samples (a circle around home, 2 minutes before the flight) fill the track.
     let mission = api("");
@@ -170,7 +188,10 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
             .sandbox(false)
             .window_size(Some((1280, 820)))
             .idle_browser_timeout(Duration::from_secs(120))
-            .args(vec![OsStr::new("--disable-gpu"), OsStr::new("--no-first-run")])
+            .args(vec![
+                OsStr::new("--disable-gpu"),
+                OsStr::new("--no-first-run"),
+            ])
             .build()
             .unwrap(),
     )
@@ -186,7 +207,8 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
         "document.body.dataset.firstDrawMs",
         Duration::from_secs(10),
     ));
-    let bytes = |path: String| rt.block_on(async { app.get(&path).await.bytes().await.unwrap().len() });
+    let bytes =
+        |path: String| rt.block_on(async { app.get(&path).await.bytes().await.unwrap().len() });
     let html = bytes(format!("/missions/{mission_id}"));
     let layer = bytes(format!("/missions/{mission_id}/risk-layer.png?t=0"));
     let state = num(&eval(&tab, "+document.body.dataset.stateBytes"));
@@ -194,7 +216,10 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
         "page weight: {html} bytes of HTML (style and script inline, no other asset) + {layer} bytes of risk layer PNG \
          + {state} bytes per state event; first render {first_draw_ms:.0} ms after navigation start"
     );
-    assert!(first_draw_ms < 1000.0, "first render took {first_draw_ms} ms");
+    assert!(
+        first_draw_ms < 1000.0,
+        "first render took {first_draw_ms} ms"
+    );
 
     // The plan revision shown increases and the obstacle markers move.
     let r0 = num(&wait_for(
@@ -221,7 +246,10 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
         if moved {
             break;
         }
-        assert!(Instant::now() < end, "the obstacle markers did not move: {m0:?} -> {m1:?}");
+        assert!(
+            Instant::now() < end,
+            "the obstacle markers did not move: {m0:?} -> {m1:?}"
+        );
         std::thread::sleep(Duration::from_millis(200));
     }
 
@@ -235,9 +263,19 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
         .filter(|o| o["kind"] == "moving")
         .count();
     assert_eq!(moving, 10, "the demo flies 10 obstacles");
-    assert_eq!(markers(&tab).len(), moving, "one marker per moving obstacle");
-    let cylinders = num(&eval(&tab, "document.querySelectorAll('g.cylinder').length"));
-    assert_eq!(cylinders as usize, mission["stationary_obstacles"].as_array().unwrap().len());
+    assert_eq!(
+        markers(&tab).len(),
+        moving,
+        "one marker per moving obstacle"
+    );
+    let cylinders = num(&eval(
+        &tab,
+        "document.querySelectorAll('g.cylinder').length",
+    ));
+    assert_eq!(
+        cylinders as usize,
+        mission["stationary_obstacles"].as_array().unwrap().len()
+    );
     // One look at the page (it redraws several times a second).
     let drawn: Value = serde_json::from_str(
         eval(
@@ -261,27 +299,52 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
         drawn_avoid as usize,
         wps.iter().filter(|w| w["kind"] == "avoid").count()
     );
-    assert_eq!(drawn["header"], format!("{shown_rev}"), "the header shows the revision");
+    assert_eq!(
+        drawn["header"],
+        format!("{shown_rev}"),
+        "the header shows the revision"
+    );
 
     // The look-ahead slider, moved with the keyboard, changes the risk layer: the spread
     // 60 s ahead covers more ground than now.
-    wait_for(&tab, "the risk layer", "document.getElementById('heat').dataset.t === '0' && document.getElementById('heat').dataset.area", Duration::from_secs(10));
+    wait_for(
+        &tab,
+        "the risk layer",
+        "document.getElementById('heat').dataset.t === '0' && document.getElementById('heat').dataset.area",
+        Duration::from_secs(10),
+    );
     let area0 = num(&eval(&tab, "+document.getElementById('heat').dataset.area"));
     let sum0 = eval(&tab, "document.getElementById('heat').dataset.sum");
     tab.find_element("#ahead").unwrap().focus().unwrap();
     tab.press_key("End").unwrap();
-    wait_for(&tab, "the layer 60 s ahead", "document.getElementById('heat').dataset.t === '60'", Duration::from_secs(10));
-    assert_eq!(eval(&tab, "document.getElementById('ahead-out').textContent"), "t + 60 s");
+    wait_for(
+        &tab,
+        "the layer 60 s ahead",
+        "document.getElementById('heat').dataset.t === '60'",
+        Duration::from_secs(10),
+    );
+    assert_eq!(
+        eval(&tab, "document.getElementById('ahead-out').textContent"),
+        "t + 60 s"
+    );
     let area60 = num(&eval(&tab, "+document.getElementById('heat').dataset.area"));
     let sum60 = eval(&tab, "document.getElementById('heat').dataset.sum");
     assert_ne!(sum0, sum60, "the risk layer changed");
-    assert!(area60 > area0, "the spread grows with the look-ahead: {area0} m² now, {area60} m² at 60 s");
+    assert!(
+        area60 > area0,
+        "the spread grows with the look-ahead: {area0} m² now, {area60} m² at 60 s"
+    );
 
     // Kill the server; restart it on the same address and database: the page reconnects
     // and goes on updating.
     app.kill9_and_restart_at_the_same_address();
     assert_eq!(app.base, base);
-    wait_for(&tab, "a reconnection", "+document.body.dataset.connects >= 2", Duration::from_secs(15));
+    wait_for(
+        &tab,
+        "a reconnection",
+        "+document.body.dataset.connects >= 2",
+        Duration::from_secs(15),
+    );
     let r1 = num(&eval(&tab, "+document.body.dataset.revision"));
     wait_for(
         &tab,
@@ -289,27 +352,66 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
         &format!("+document.body.dataset.revision > {r1}"),
         Duration::from_secs(20),
     );
-    assert_eq!(eval(&tab, "document.getElementById('conn').dataset.state"), "live");
+    assert_eq!(
+        eval(&tab, "document.getElementById('conn').dataset.state"),
+        "live"
+    );
 
     // The replay: the recording from its first second (the older track: no plan yet) to
     // its last (a plan), with the judges' scoring.
     let toggle = tab.find_element("#replay-toggle").unwrap();
     toggle.focus().unwrap();
     tab.press_key("Enter").unwrap();
-    wait_for(&tab, "the replay", "document.body.dataset.mode === 'replay' && document.body.dataset.replayT", Duration::from_secs(15));
-    assert!(num(&eval(&tab, "+document.body.dataset.revision")) >= r1, "the end of the recording shows the newest plans");
+    wait_for(
+        &tab,
+        "the replay",
+        "document.body.dataset.mode === 'replay' && document.body.dataset.replayT",
+        Duration::from_secs(15),
+    );
+    assert!(
+        num(&eval(&tab, "+document.body.dataset.revision")) >= r1,
+        "the end of the recording shows the newest plans"
+    );
     tab.find_element("#replay-t").unwrap().focus().unwrap();
     tab.press_key("Home").unwrap();
-    wait_for(&tab, "the recording's start", "document.body.dataset.replayT === '0'", Duration::from_secs(5));
-    assert_eq!(num(&eval(&tab, "+document.body.dataset.revision")), 0.0, "no plan at the start");
-    assert_eq!(num(&eval(&tab, "document.querySelectorAll('#aircraft').length")), 1.0);
+    wait_for(
+        &tab,
+        "the recording's start",
+        "document.body.dataset.replayT === '0'",
+        Duration::from_secs(5),
+    );
+    assert_eq!(
+        num(&eval(&tab, "+document.body.dataset.revision")),
+        0.0,
+        "no plan at the start"
+    );
+    assert_eq!(
+        num(&eval(&tab, "document.querySelectorAll('#aircraft').length")),
+        1.0
+    );
     let score = eval(&tab, "document.getElementById('replay-score').textContent");
-    assert!(score.as_str().unwrap().contains("Whole flight, judged: sphere score"), "{score}");
+    assert!(
+        score
+            .as_str()
+            .unwrap()
+            .contains("Whole flight, judged: sphere score"),
+        "{score}"
+    );
     tab.press_key("End").unwrap();
-    wait_for(&tab, "the recording's end", "document.body.dataset.replayT !== '0'", Duration::from_secs(5));
+    wait_for(
+        &tab,
+        "the recording's end",
+        "document.body.dataset.replayT !== '0'",
+        Duration::from_secs(5),
+    );
     toggle.focus().unwrap();
     tab.press_key("Enter").unwrap();
-    wait_for(&tab, "live again", "document.body.dataset.mode === 'live'", Duration::from_secs(5));
+    wait_for(
+        &tab,
+        "live again",
+        "document.body.dataset.mode === 'live'",
+        Duration::from_secs(5),
+    );
 
     // A picture for people.
     let png = tab

@@ -266,7 +266,12 @@ async fn get_risk_png(
                 p.waypoints
                     .iter()
                     .skip(p.current_index.saturating_sub(1))
-                    .map(|w| (frame.to_enu(w.lat, w.lon), w.kind == super::plans::KindOut::Avoid))
+                    .map(|w| {
+                        (
+                            frame.to_enu(w.lat, w.lon),
+                            w.kind == super::plans::KindOut::Avoid,
+                        )
+                    })
                     .collect()
             }),
             t_s: s.anchor_t.map(|_| s.slice.t_s),

@@ -177,9 +177,10 @@ impl std::fmt::Display for FlightSummary {
 /// seed, the aircraft starting 200 m south of the first waypoint at its altitude.
 pub fn scenario(mission: &Mission, seed: u64, obstacles: usize) -> Scenario {
     let pm = mission.to_planner();
-    let first = pm.waypoints.first().map_or([0.0, 0.0, 100.0], |w| {
-        [w.p_m[0], w.p_m[1] - 200.0, w.alt_m]
-    });
+    let first = pm
+        .waypoints
+        .first()
+        .map_or([0.0, 0.0, 100.0], |w| [w.p_m[0], w.p_m[1] - 200.0, w.alt_m]);
     with_moving_spheres(pm, first, Family::Spline, seed, obstacles, 20.0)
 }
 
@@ -233,7 +234,10 @@ struct Progress {
 impl Progress {
     fn show(&mut self, line: impl FnOnce() -> String) {
         let now = Instant::now();
-        if self.last.is_none_or(|l| now.duration_since(l) >= Duration::from_secs(5)) {
+        if self
+            .last
+            .is_none_or(|l| now.duration_since(l) >= Duration::from_secs(5))
+        {
             self.last = Some(now);
             println!(
                 "jink demo: [{:>4.0} s] {}",
@@ -361,7 +365,9 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                     let mut next = stack_from_plan(&plan, &frame);
                     // Items the aircraft reached while the plan was computed are behind it:
                     // skip as many in the new stack rather than turn back for them.
-                    let reached = stack.current.saturating_sub(asked_at.unwrap_or(stack.current));
+                    let reached = stack
+                        .current
+                        .saturating_sub(asked_at.unwrap_or(stack.current));
                     next.current = (next.current + reached).min(next.items.len());
                     ap.replace_stack(&mut stack, next);
                 }
@@ -415,7 +421,11 @@ fn post_detached(
     });
 }
 
-async fn request_plan(client: &reqwest::Client, url: &str, body: &Value) -> Result<PlanOut, String> {
+async fn request_plan(
+    client: &reqwest::Client,
+    url: &str,
+    body: &Value,
+) -> Result<PlanOut, String> {
     let r = client
         .post(url)
         .json(body)

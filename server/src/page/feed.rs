@@ -222,7 +222,10 @@ impl Feed {
         }
         let newest = rows.iter().map(|r| r.t_s).fold(anchor, f64::max);
         for t in self.tracks.values_mut() {
-            while t.front().is_some_and(|(t0, _)| *t0 < newest - OBSTACLE_TRACK_S) {
+            while t
+                .front()
+                .is_some_and(|(t0, _)| *t0 < newest - OBSTACLE_TRACK_S)
+            {
                 t.pop_front();
             }
         }

@@ -159,7 +159,9 @@ async fn mission_events(
                     }
                     Ok(None) => {}
                     Err(ApiError::NotFound { .. }) => {
-                        let ev = Event::default().event("gone").data("the mission was deleted");
+                        let ev = Event::default()
+                            .event("gone")
+                            .data("the mission was deleted");
                         return Some((Ok(ev), (feed, state, None, shutdown)));
                     }
                     Err(e) => {

@@ -63,11 +63,7 @@ impl SphereTruth for Recorded {
 
 /// The judges' report and the per-second series of a flight: `telemetry` `(t, [e, n, alt])`
 /// in time order against `truth` and `mission` (in the planner's terms).
-pub fn score(
-    telemetry: &[(f64, [f64; 3])],
-    truth: &Recorded,
-    mission: &planner::Mission,
-) -> Value {
+pub fn score(telemetry: &[(f64, [f64; 3])], truth: &Recorded, mission: &planner::Mission) -> Value {
     let report = judge(telemetry, truth, mission);
     let waypoints_m: Vec<[f64; 3]> = mission
         .waypoints
@@ -192,7 +188,10 @@ mod tests {
     fn one_sphere() -> Recorded {
         Recorded {
             ids: vec!["7".into()],
-            tracks: vec![(vec![(0.0, [0.0, 0.0, 100.0]), (10.0, [100.0, 0.0, 100.0])], 10.0)],
+            tracks: vec![(
+                vec![(0.0, [0.0, 0.0, 100.0]), (10.0, [100.0, 0.0, 100.0])],
+                10.0,
+            )],
         }
     }
 

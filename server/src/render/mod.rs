@@ -544,7 +544,10 @@ mod tests {
             .flat_map(|x| (22..32).map(move |y| (x, y)))
             .filter(|&(x, y)| rgb(&img, x, y) == colour::INK)
             .count();
-        assert!(clock_ink > 60, "the clock time is drawn: {clock_ink} ink pixels");
+        assert!(
+            clock_ink > 60,
+            "the clock time is drawn: {clock_ink} ink pixels"
+        );
     }
 
     #[test]

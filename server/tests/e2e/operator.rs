@@ -54,7 +54,10 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
     let page = app.get(&format!("/missions/{id}")).await;
     assert_eq!(page.status(), 200);
     let html = page.text().await.unwrap();
-    assert!(html.contains("<title>Interop mission 1 · jink</title>"), "{html:.300}");
+    assert!(
+        html.contains("<title>Interop mission 1 · jink</title>"),
+        "{html:.300}"
+    );
     assert!(!html.contains("{{"), "every placeholder is filled");
     // No asset from elsewhere (the only URL is the SVG namespace's name).
     for from_elsewhere in ["src=\"http", "href=\"http", "url(http", "@import", "//cdn"] {
@@ -89,11 +92,16 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
         .iter()
         .map(|w| w["code"].as_str().unwrap())
         .collect();
-    assert!(codes.contains(&"stale_telemetry") && codes.contains(&"stale_obstacles"), "{codes:?}");
+    assert!(
+        codes.contains(&"stale_telemetry") && codes.contains(&"stale_obstacles"),
+        "{codes:?}"
+    );
 
     // The risk layer: one pixel per cell, placed by its header, not empty near the
     // obstacles; a look-ahead beyond the horizon names the field.
-    let r = app.get(&format!("/missions/{id}/risk-layer.png?t=10")).await;
+    let r = app
+        .get(&format!("/missions/{id}/risk-layer.png?t=10"))
+        .await;
     assert_eq!(r.status(), 200);
     let numbers = |header: &str| -> Vec<f64> {
         r.headers()[header]
@@ -111,10 +119,15 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
         .unwrap();
     let mut buf = vec![0; reader.output_buffer_size().unwrap()];
     let info = reader.next_frame(&mut buf).unwrap();
-    assert_eq!((f64::from(info.width), f64::from(info.height)), (grid[3], grid[4]));
+    assert_eq!(
+        (f64::from(info.width), f64::from(info.height)),
+        (grid[3], grid[4])
+    );
     let opaque = buf.chunks(4).filter(|px| px[3] == 255).count();
     assert!(opaque > 0, "the obstacles' spread is drawn");
-    let bad = app.get(&format!("/missions/{id}/risk-layer.png?t=61")).await;
+    let bad = app
+        .get(&format!("/missions/{id}/risk-layer.png?t=61"))
+        .await;
     let doc = problem(bad, 422).await;
     assert_eq!(doc["errors"][0]["pointer"], "/t", "{doc}");
 
@@ -125,7 +138,12 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
     let obstacles = r["obstacles"].as_array().unwrap();
     assert_eq!(obstacles.len(), 2);
     // 6 s of 5 Hz observations, sent at least 0.5 s apart: one in three (0.6 s apart).
-    assert_eq!(obstacles[0]["samples"].as_array().unwrap().len(), 10, "{}", obstacles[0]);
+    assert_eq!(
+        obstacles[0]["samples"].as_array().unwrap().len(),
+        10,
+        "{}",
+        obstacles[0]
+    );
     assert_eq!(r["plans"][0]["plan_id"], p["plan_id"]);
     assert_eq!(r["scoring"]["sphere_score"], 1.0);
     assert_eq!(r["scoring"]["spheres_hit"], json!([]));
