@@ -360,6 +360,20 @@ fn with_cylinders_alone_a_clear_route_is_found_whenever_one_exists() {
     assert!(checked >= 10, "only {checked} fields had a route");
 }
 
+/// A plan request at t = 0 from the origin heading east toward stack item 1, default
+/// parameters, seed 3.
+fn static_request<'a>(mission: &'a Mission, stack: &'a [StackItem]) -> PlanRequest<'a> {
+    PlanRequest {
+        mission,
+        aircraft: aircraft(),
+        stack,
+        current_index: 1,
+        state: east_state(0.0),
+        params: PlanParams::default(),
+        seed: 3,
+    }
+}
+
 #[test]
 fn a_small_cylinder_is_passed_with_the_margin_not_only_its_tiny_buffer() {
     // A 10 m cylinder 12 m south of a 2 km leg east: 20% buffer is only 2 m, so the leg
@@ -369,15 +383,7 @@ fn a_small_cylinder_is_passed_with_the_margin_not_only_its_tiny_buffer() {
     let mission = common::open_mission(vec![cyl], &[[0.0, 0.0], [2000.0, 0.0]]);
     let stack = mission_stack(&mission);
     let params = PlanParams::default();
-    let req = PlanRequest {
-        mission: &mission,
-        aircraft: aircraft(),
-        stack: &stack,
-        current_index: 1,
-        state: east_state(0.0),
-        params,
-        seed: 3,
-    };
+    let req = static_request(&mission, &stack);
     let p = plan(&req, &NoRisk).unwrap();
     assert_eq!(p.outcome, PlanOutcome::Exact, "{p:?}");
     let r = route(&req.state, &p.items, p.current_index);
@@ -410,15 +416,7 @@ fn the_margin_never_swallows_a_waypoint_next_to_a_cylinder() {
     let cyl = common::cylinder([1000.0, -33.0], 30.0);
     let mission = common::open_mission(vec![cyl], &[[0.0, 0.0], [1000.0, 0.0], [2000.0, 0.0]]);
     let stack = mission_stack(&mission);
-    let req = PlanRequest {
-        mission: &mission,
-        aircraft: aircraft(),
-        stack: &stack,
-        current_index: 1,
-        state: east_state(0.0),
-        params: PlanParams::default(),
-        seed: 3,
-    };
+    let req = static_request(&mission, &stack);
     let p = plan(&req, &NoRisk).unwrap();
     assert!(
         !matches!(p.outcome, PlanOutcome::WaypointInsideCylinder { .. }),
