@@ -37,9 +37,14 @@ pub fn cross(a: Point, b: Point) -> f64 {
 }
 
 /// Euclidean length, metres.
+///
+/// `sqrt(x^2 + y^2)`, not `hypot`: libm's `hypot` guards against overflow with a slow
+/// path that cost a fifth of a replan (the planner reads distances millions of times a
+/// second), and local ENU coordinates (at most a few hundred kilometres) are nowhere near
+/// overflowing a square.
 #[inline]
 pub fn norm(a: Point) -> f64 {
-    a[0].hypot(a[1])
+    (a[0] * a[0] + a[1] * a[1]).sqrt()
 }
 
 /// Distance between two points, metres.

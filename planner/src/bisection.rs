@@ -49,6 +49,10 @@ use crate::turn::fillet_tangent_m;
 /// Number of turning choices per bisection (seed 002: five).
 pub const CHOICES: usize = 5;
 
+/// The order the choices are sampled in: straight first, then outwards (see the pruning
+/// in `node`).
+const CHOICE_ORDER: [usize; CHOICES] = [2, 1, 3, 0, 4];
+
 /// Probe points along a leg (and across it) when sizing the choices.
 const PROBES: usize = 16;
 
@@ -294,7 +298,11 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
     let mut scores = [f64::INFINITY; CHOICES];
     let mut best_sample = [f64::INFINITY; CHOICES];
     let mut any = false;
-    for k in 0..CHOICES {
+    // The lowest mean score so far: every term of a sample's score is non-negative, so a
+    // choice whose running sum already exceeds it times the sample count cannot win and
+    // stops sampling (exact pruning; the straight choice first, then outwards).
+    let mut best_mean = f64::INFINITY;
+    for k in CHOICE_ORDER {
         let c = add(m, scale(n, (k as f64 - 2.0) * delta));
         if !env.zones.contains(c) {
             continue;
@@ -329,6 +337,8 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
                         > 2.0 * sigma + 1e-6
             });
         let mut sum = 0.0;
+        let cutoff = best_mean * ctx.samples as f64 + 1e-9;
+        let mut pruned = false;
         for _ in 0..ctx.samples {
             sample_path(ctx, a, c, b, sigma, np);
             let s = score_sample(ctx, t_a, zone_safe) + turn_cost;
@@ -339,8 +349,15 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
                 ws.best[k].clear();
                 ws.best[k].extend_from_slice(&ws.sample);
             }
+            if sum > cutoff {
+                pruned = true;
+                break;
+            }
         }
-        scores[k] = sum / ctx.samples as f64;
+        if !pruned {
+            scores[k] = sum / ctx.samples as f64;
+            best_mean = best_mean.min(scores[k]);
+        }
         any = true;
     }
     if !any {

@@ -2,13 +2,17 @@
 //! from the aircraft's position and heading with the aircraft model and checked densely
 //! against the predicted occupancy at the matching times, cylinders and fly zone included.
 //!
-//! Two paths are checked, since the autopilot flies somewhere between them:
+//! Three paths are checked, since autopilots fly somewhere among them:
 //! - the **polyline** through the items (what an autopilot that tracks its legs flies);
-//! - the **flown path**: a constant-speed aircraft turning at most at its minimum turn
+//! - the **pursuit path**: a constant-speed aircraft turning at most at its minimum turn
 //!   radius `R`, starting at the telemetry heading, pursuing each item and switching to the
 //!   next one a fillet's tangent length `R tan(theta / 2)` before it (at most half the leg),
 //!   so it cuts corners the way a fixed wing does, and overshoots where the first leg
-//!   starts with a turn.
+//!   starts with a turn;
+//! - the **L1 path**: the same aircraft under L1 track following (ArduPlane's guidance,
+//!   [`VerifyParams::l1_s`]), switching at [`VerifyParams::acceptance_m`]: it overshoots
+//!   each corner and converges back onto the next leg in an S, which the pursuit path
+//!   never does (a tiny cylinder beside a leg was entered that way, issue 10).
 //!
 //! Every `step_m` metres of both paths (default 3 m, a third of the smallest 30 ft sphere's
 //! radius) the risk field is read at the point's own arrival time within the horizon, and
@@ -51,6 +55,13 @@ pub struct VerifyParams {
     /// the far prediction is spread thin and is revised every replan, so it is a cost
     /// there, not a wall (receding horizon). Default 0.3.
     pub far_risk: f64,
+    /// The L1 distance of the track-following autopilot the second flown path models,
+    /// in seconds of flight: `L1 = l1_s * speed` (ArduPlane's defaults, period 17 s and
+    /// damping 0.75, give `0.75 * 17 / pi = 4.06 s`). Default 4.06.
+    pub l1_s: f64,
+    /// The autopilot's waypoint acceptance radius, metres (it switches to the next item
+    /// within it or once past the item's finish line). Default 10.
+    pub acceptance_m: f64,
 }
 
 impl Default for VerifyParams {
@@ -59,6 +70,8 @@ impl Default for VerifyParams {
             step_m: 3.0,
             near_s: 10.0,
             far_risk: 0.3,
+            l1_s: 0.75 * 17.0 / std::f64::consts::PI,
+            acceptance_m: 10.0,
         }
     }
 }
@@ -180,6 +193,11 @@ struct Acc<'a> {
     limit_slope: f64,
     hit: Vec<bool>,
     cylinders: &'a [Cylinder],
+    /// Per cylinder, the path length (along the path being checked) before which the path
+    /// cannot reach it: a path of length `s` moves at most `s` metres, so a point at
+    /// distance `d` from a cylinder's edge needs no check for the next `d` metres. Exact,
+    /// and most checks are skipped (issue 9: plan latency).
+    next_check_s: Vec<f64>,
 }
 
 impl Acc<'_> {
@@ -211,9 +229,23 @@ impl Acc<'_> {
         r
     }
 
-    fn cylinders(&mut self, alt_m: f64, p: Point, t: f64) {
+    /// Starts a new path: every cylinder is checked at its first point.
+    fn restart_path(&mut self) {
+        self.next_check_s
+            .iter_mut()
+            .for_each(|s| *s = f64::NEG_INFINITY);
+    }
+
+    /// Checks the point at path length `s_m` (non-decreasing along one path).
+    fn cylinders(&mut self, alt_m: f64, p: Point, t: f64, s_m: f64) {
         for (k, c) in self.cylinders.iter().enumerate() {
-            if !self.hit[k] && c.matters_at(alt_m) && dist(p, c.center_m) < c.radius_m {
+            if self.hit[k] || s_m < self.next_check_s[k] || !c.matters_at(alt_m) {
+                continue;
+            }
+            let gap = dist(p, c.center_m) - c.radius_m;
+            if gap >= 0.0 {
+                self.next_check_s[k] = s_m + gap;
+            } else {
                 self.hit[k] = true;
                 self.out.cylinder_hits += 1;
                 if self.out.conflict.is_none() {
@@ -255,12 +287,13 @@ pub fn verify_route<'e>(
         },
         hit: vec![false; env0.cylinders.len()],
         cylinders: env0.cylinders,
+        next_check_s: vec![f64::NEG_INFINITY; env0.cylinders.len()],
     };
     let step = params.step_m.max(0.5);
     let horizon_end = env0.horizon_end_s;
 
     // Where the aircraft is now counts too (nothing can change it, but it is real risk).
-    acc.cylinders(state.alt_m, state.p_m, state.t_s);
+    acc.cylinders(state.alt_m, state.p_m, state.t_s, 0.0);
     acc.risk(&env0, state.p_m, state.t_s);
     // The polyline, on its own clock.
     let (mut prev, mut prev_alt, mut t) = (state.p_m, state.alt_m, state.t_s);
@@ -279,7 +312,7 @@ pub fn verify_route<'e>(
             let f = k as f64 / n as f64;
             let p = lerp(prev, it.p_m, f);
             let tk = t + f * l / speed_mps;
-            acc.cylinders(alt, p, tk);
+            acc.cylinders(alt, p, tk, acc.out.length_m + f * l);
             if tk <= horizon_end {
                 acc.risk(&env, p, tk);
             }
@@ -302,21 +335,45 @@ pub fn verify_route<'e>(
             acc.out.conflict = Some(Conflict::Unreachable { item: 0 });
         }
     }
-    fly(
-        &mut acc,
-        env_at,
-        state,
-        tail,
-        speed_mps,
-        turn_radius_m,
-        step,
-        horizon_end,
-    );
+    for guidance in [
+        Guidance::Pursuit,
+        Guidance::L1 {
+            l1_m: params.l1_s * speed_mps,
+            acceptance_m: params.acceptance_m,
+        },
+    ] {
+        fly(
+            &mut acc,
+            env_at,
+            state,
+            tail,
+            speed_mps,
+            turn_radius_m,
+            step,
+            horizon_end,
+            guidance,
+        );
+    }
     acc.out
 }
 
-/// Simulates the flown path (pursuit at bounded turn rate, fillet switching) and checks
-/// it up to `horizon_end` (cylinders and risk).
+/// How the modelled autopilot steers along the flown path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Guidance {
+    /// Heads straight for the item, switching a fillet's tangent length before it (cuts
+    /// corners). Its risk is the route's exposure.
+    Pursuit,
+    /// L1 track following (Park, Deyst and How 2004, as ArduPlane flies it): the
+    /// reference point is where a circle of radius `l1_m` round the aircraft meets the
+    /// leg (or the item when nearer), lateral acceleration `2 V^2 / L1 sin(eta)`;
+    /// switching within `acceptance_m` or past the item's finish line. It overshoots
+    /// corners and converges back onto each leg in an S: the path a tiny cylinder beside
+    /// a leg meets (issue 10, mixed seed 10).
+    L1 { l1_m: f64, acceptance_m: f64 },
+}
+
+/// Simulates a flown path (`guidance` at bounded turn rate) and checks it up to
+/// `horizon_end` (cylinders and risk).
 #[allow(clippy::too_many_arguments)]
 fn fly<'e>(
     acc: &mut Acc<'_>,
@@ -327,6 +384,7 @@ fn fly<'e>(
     turn_radius_m: f64,
     step: f64,
     horizon_end: f64,
+    guidance: Guidance,
 ) {
     if tail.is_empty() || turn_radius_m <= 0.0 {
         return;
@@ -340,6 +398,8 @@ fn fly<'e>(
     let mut alt_prev = state.alt_m;
     let mut leg_from = state.p_m;
     let mut i = 0;
+    let mut s_m = 0.0;
+    acc.restart_path();
     // Time allowed to reach an item: the straight time plus two full circles.
     let circle_s = std::f64::consts::TAU * turn_radius_m / speed_mps;
     let mut deadline = t + dist(p, tail[0].p_m) / speed_mps + 2.0 * circle_s + 5.0;
@@ -347,9 +407,11 @@ fn fly<'e>(
         let it = tail[i];
         let alt = alt_prev.min(it.alt_m);
         let env = env_at(alt);
-        // Switch early by the fillet's tangent length toward the next item.
-        let lead = match tail.get(i + 1) {
-            Some(next) => {
+        // Pursuit switches early by the fillet's tangent length toward the next item; L1
+        // at the acceptance radius.
+        let lead = match (guidance, tail.get(i + 1)) {
+            (Guidance::L1 { acceptance_m, .. }, _) => acceptance_m,
+            (Guidance::Pursuit, Some(next)) => {
                 let a = sub(it.p_m, leg_from);
                 let b = sub(next.p_m, it.p_m);
                 let (la, lb) = (dist(leg_from, it.p_m), dist(it.p_m, next.p_m));
@@ -361,7 +423,7 @@ fn fly<'e>(
                     0.0
                 }
             }
-            None => 0.0,
+            (Guidance::Pursuit, None) => 0.0,
         };
         let d = dist(p, it.p_m);
         let passed = {
@@ -389,19 +451,62 @@ fn fly<'e>(
             }
             return;
         }
-        // Pursuit: turn toward the item at most at w_max.
-        let want = (it.p_m[1] - p[1]).atan2(it.p_m[0] - p[0]);
-        let mut e = want - th;
-        e = (e + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-        let w = (e / dt).clamp(-w_max, w_max);
+        let w = match guidance {
+            // Pursuit: turn toward the item at most at w_max.
+            Guidance::Pursuit => (wrap(bearing(p, it.p_m) - th) / dt).clamp(-w_max, w_max),
+            Guidance::L1 { l1_m, .. } => {
+                let reference = l1_reference(p, leg_from, it.p_m, l1_m);
+                let eta = wrap(bearing(p, reference) - th);
+                if eta.abs() > std::f64::consts::FRAC_PI_2 {
+                    w_max.copysign(eta)
+                } else {
+                    (2.0 * speed_mps / l1_m * eta.sin()).clamp(-w_max, w_max)
+                }
+            }
+        };
         let mid = th + 0.5 * w * dt;
         p = [p[0] + step * mid.cos(), p[1] + step * mid.sin()];
         th += w * dt;
         t += dt;
-        acc.cylinders(alt, p, t);
+        s_m += step;
+        acc.cylinders(alt, p, t, s_m);
         let r = acc.risk(&env, p, t);
-        acc.out.exposure_m += r * step;
+        if guidance == Guidance::Pursuit {
+            acc.out.exposure_m += r * step;
+        }
     }
+}
+
+/// `a` wrapped to `[-pi, pi)`.
+fn wrap(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+}
+
+/// ENU direction angle from `p` to `q`, radians.
+fn bearing(p: Point, q: Point) -> f64 {
+    (q[1] - p[1]).atan2(q[0] - p[0])
+}
+
+/// L1's reference point for an aircraft at `p` on the leg `from -> to`: the item itself
+/// when it is within `l1_m` (or the leg is degenerate); else where the circle of radius
+/// `l1_m` round `p` meets the leg ahead; the foot of the perpendicular when the leg is
+/// farther than `l1_m`.
+fn l1_reference(p: Point, from: Point, to: Point, l1_m: f64) -> Point {
+    let leg = sub(to, from);
+    let leg_len = dist(from, to);
+    if leg_len < 1e-6 || dist(p, to) <= l1_m {
+        return to;
+    }
+    let u = [leg[0] / leg_len, leg[1] / leg_len];
+    let r = sub(p, from);
+    let along = r[0] * u[0] + r[1] * u[1];
+    let xt = u[0] * r[1] - u[1] * r[0];
+    let a = if xt.abs() >= l1_m {
+        along.clamp(0.0, leg_len)
+    } else {
+        (along + (l1_m * l1_m - xt * xt).sqrt()).min(leg_len)
+    };
+    [from[0] + u[0] * a, from[1] + u[1] * a]
 }
 
 #[cfg(test)]
@@ -486,6 +591,80 @@ mod tests {
         let b = check(&NoRisk, &east, &state(0.0), &tail);
         // The polyline (straight south) touches neither; the turn sweeps exactly one.
         assert_eq!(a.cylinder_hits + b.cylinder_hits, 1, "{a:?} {b:?}");
+    }
+
+    #[test]
+    fn an_l1_overshoot_past_a_corner_into_a_cylinder_is_caught() {
+        // North 300 m to A, then east to B. An L1 autopilot switches 10 m before A and
+        // turns right on a >= 40 m circle, overshooting north of the leg A -> B before it
+        // converges onto it; a cylinder 40 m north of that leg lies on the overshoot. The
+        // polyline passes 28 m from its edge and the corner-cutting pursuit turns inside.
+        let tail = [
+            StackItem::avoid([0.0, 300.0], 100.0),
+            StackItem::mission(0, [400.0, 300.0], 100.0),
+        ];
+        let beside = [Cylinder {
+            center_m: [60.0, 340.0],
+            radius_m: 12.0,
+            top_m: 200.0,
+        }];
+        let v = check(&NoRisk, &beside, &state(0.0), &tail);
+        assert_eq!(v.cylinder_hits, 1, "{v:?}");
+        assert!(matches!(v.conflict, Some(Conflict::Cylinder { .. })));
+        // Inside the corner, as far from the polyline, nothing flies through it.
+        let inside = [Cylinder {
+            center_m: [60.0, 260.0],
+            radius_m: 12.0,
+            top_m: 200.0,
+        }];
+        assert!(check(&NoRisk, &inside, &state(0.0), &tail).is_clear(0.05));
+    }
+
+    proptest::proptest! {
+        /// Skipping cylinder checks by the distance to each cylinder's edge finds exactly
+        /// the cylinders a check of every sample point finds.
+        #[test]
+        fn skipped_cylinder_checks_find_what_checking_every_point_finds(
+            cyl in proptest::collection::vec((-400.0..400.0f64, -400.0..400.0f64, 3.0..60.0f64), 1..8),
+            pts in proptest::collection::vec((-500.0..500.0f64, -500.0..500.0f64), 1..6),
+        ) {
+            let cylinders: Vec<Cylinder> = cyl
+                .iter()
+                .map(|&(x, y, r)| Cylinder { center_m: [x, y], radius_m: r, top_m: 500.0 })
+                .collect();
+            let tail: Vec<StackItem> =
+                pts.iter().map(|&(x, y)| StackItem::mission(0, [x, y], 100.0)).collect();
+            let zones = Zones::default();
+            let env_at = |alt_m| LegEnv {
+                risk: &NoRisk,
+                zones: &zones,
+                cylinders: &cylinders,
+                alt_m,
+                buffer_fraction: 0.2,
+                speed_mps: 20.0,
+                horizon_end_s: 60.0,
+            };
+            let s = state(0.0);
+            // Turn radius 0: the polyline alone.
+            let v = verify_route(&env_at, &s, &tail, 20.0, 0.0, 0.05, &VerifyParams::default());
+            let step = VerifyParams::default().step_m;
+            let mut hit = vec![false; cylinders.len()];
+            let mut prev = s.p_m;
+            let mut check = |p: Point| {
+                for (k, c) in cylinders.iter().enumerate() {
+                    hit[k] |= dist(p, c.center_m) < c.radius_m;
+                }
+            };
+            check(prev);
+            for it in &tail {
+                let n = (dist(prev, it.p_m) / step).ceil().max(1.0) as usize;
+                for k in 1..=n {
+                    check(lerp(prev, it.p_m, k as f64 / n as f64));
+                }
+                prev = it.p_m;
+            }
+            proptest::prop_assert_eq!(v.cylinder_hits, hit.iter().filter(|&&h| h).count());
+        }
     }
 
     /// Risk 1 inside a disc of radius 10 m moving east at 10 m/s from (-200, 500) at t = 0.
