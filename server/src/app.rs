@@ -1,6 +1,5 @@
 //! The application: shared state, the router with its middleware, and the server loop.
 
-use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Instant;
 

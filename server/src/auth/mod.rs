@@ -312,7 +312,6 @@ impl TokenCache {
         }))
     }
 }
-}
 
 /// The guard middleware: authenticates, authorises, applies the write rate limits, then
 /// runs the request with its writer named in [`WRITER`].

@@ -128,7 +128,12 @@ async fn too_many_items_in_one_request_are_named_in_413() {
         &db,
         &["--bind", "127.0.0.1:0", "--max-observations", "5", "--max-waypoints", "3"],
     );
-    let id = s.webster(None).await;
+    let small = json!({"name": "small", "fly_zones": [{"boundary": [{"lat": 38.0, "lon": -76.0},
+        {"lat": 38.01, "lon": -76.0}, {"lat": 38.01, "lon": -75.99}], "alt_min_msl_m": 30, "alt_max_msl_m": 200}],
+        "waypoints": [{"lat": 38.002, "lon": -75.998, "alt_msl_m": 100}]});
+    let r = s.post("/api/v1/missions", &small, None).await;
+    assert_eq!(r.status(), 201);
+    let id = r.json::<Value>().await.unwrap()["id"].as_str().unwrap().to_string();
     let obs: Vec<Value> = (0..6).map(|k| observation("0", 1_700_000_000.0 + f64::from(k))).collect();
     let r = s.post(&format!("/api/v1/missions/{id}/obstacles"), &json!({"observations": obs}), None).await;
     let p = problem(r, 413).await;
