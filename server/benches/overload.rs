@@ -40,10 +40,23 @@ fn rss_mb(pid: u32) -> f64 {
 
 fn jink_token(db_url: &str, name: &str, role: &str) -> String {
     let out = Command::new(env!("CARGO_BIN_EXE_jink"))
-        .args(["token", "create", "--name", name, "--role", role, "--database-url", db_url])
+        .args([
+            "token",
+            "create",
+            "--name",
+            name,
+            "--role",
+            role,
+            "--database-url",
+            db_url,
+        ])
         .output()
         .expect("jink token create");
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     String::from_utf8(out.stdout).unwrap().trim().to_string()
 }
 
@@ -301,7 +314,11 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
     let rss_peak = rss.iter().copied().fold(0.0, f64::max);
     println!(
         "overload: auth={} clients={clients} missions={missions} seconds={seconds}",
-        if auth { "on (one write token per client)" } else { "off (loopback, local)" }
+        if auth {
+            "on (one write token per client)"
+        } else {
+            "off (loopback, local)"
+        }
     );
     println!("  statuses: {:?}", t.statuses);
     println!(
@@ -312,7 +329,10 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
         pct(&mut all, 1.0),
         worst_sec_p99
     );
-    println!("  plans: {} computed, {} refused with Retry-After (503/429)", t.plans_ok, t.plans_refused);
+    println!(
+        "  plans: {} computed, {} refused with Retry-After (503/429)",
+        t.plans_ok, t.plans_refused
+    );
     println!(
         "  /healthz: {} probes, worst {:.1} ms, {} over 100 ms or failed",
         health.len(),
@@ -329,7 +349,10 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
     if !t.bad.is_empty() {
         println!("  unexpected answers: {:?}", &t.bad[..t.bad.len().min(10)]);
     }
-    assert!(t.bad.is_empty(), "answers other than 2xx, 409, 503/429 with Retry-After");
+    assert!(
+        t.bad.is_empty(),
+        "answers other than 2xx, 409, 503/429 with Retry-After"
+    );
     assert_eq!(t.acknowledged, stored, "acknowledged observations lost");
 }
 

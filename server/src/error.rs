@@ -209,7 +209,9 @@ impl IntoResponse for ApiError {
                 // password), so the operator page works on a guarded bind.
                 resp.headers_mut().insert(
                     header::WWW_AUTHENTICATE,
-                    HeaderValue::from_static(r#"Bearer realm="jink", Basic realm="jink", charset="UTF-8""#),
+                    HeaderValue::from_static(
+                        r#"Bearer realm="jink", Basic realm="jink", charset="UTF-8""#,
+                    ),
                 );
             }
             _ => {}

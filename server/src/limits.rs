@@ -166,13 +166,22 @@ impl ItemLimits {
 /// # Errors
 /// 413 naming the first list over its limit by its JSON pointer.
 pub fn check_items(value: &Value, limits: &ItemLimits) -> Result<(), ApiError> {
-    fn walk(v: &Value, key: &str, pointer: &mut String, limits: &ItemLimits) -> Result<(), ApiError> {
+    fn walk(
+        v: &Value,
+        key: &str,
+        pointer: &mut String,
+        limits: &ItemLimits,
+    ) -> Result<(), ApiError> {
         match v {
             Value::Array(items) => {
                 let (max, _) = limits.of(key);
                 if items.len() > max {
                     return Err(ApiError::TooManyItems {
-                        pointer: if pointer.is_empty() { "/".into() } else { pointer.clone() },
+                        pointer: if pointer.is_empty() {
+                            "/".into()
+                        } else {
+                            pointer.clone()
+                        },
                         count: items.len(),
                         max,
                     });

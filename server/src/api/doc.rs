@@ -43,8 +43,8 @@ fn add_access(doc: &mut Value) {
         "type": "http",
         "scheme": "bearer",
         "description": "A token from `jink token create --name NAME --role read|write|admin`. \
-Required on every request but GET /healthz when jink is bound to a non-loopback address (or run with --auth on); \
-optional on loopback. `read` may GET, `write` may also post telemetry, obstacles and plans, `admin` may also create and delete missions."
+    Required on every request but GET /healthz when jink is bound to a non-loopback address (or run with --auth on); \
+    optional on loopback. `read` may GET, `write` may also post telemetry, obstacles and plans, `admin` may also create and delete missions."
     });
     doc["security"] = json!([{}, {"bearer": []}]);
     for schema in ["Mission", "ObservationOut", "AircraftTelemetryOut"] {
@@ -71,13 +71,22 @@ optional on loopback. `read` may GET, `write` may also post telemetry, obstacles
                 }
             };
             if path == "/healthz" {
-                add("503", "The request timed out (`Retry-After` says when to retry)");
+                add(
+                    "503",
+                    "The request timed out (`Retry-After` says when to retry)",
+                );
                 continue;
             }
-            add("401", "No token, or a token that is unknown or revoked, where one is required");
+            add(
+                "401",
+                "No token, or a token that is unknown or revoked, where one is required",
+            );
             add("403", "The token's role does not allow this operation");
             if method != "get" {
-                add("429", "The token's write rate is exhausted; `Retry-After` says when to retry");
+                add(
+                    "429",
+                    "The token's write rate is exhausted; `Retry-After` says when to retry",
+                );
             }
             add(
                 "503",

@@ -109,7 +109,9 @@ async fn list_missions(
         missions
             .iter()
             .map(|m| {
-                let w = writers.get(m.id.as_str()).map_or(crate::auth::LOCAL, String::as_str);
+                let w = writers
+                    .get(m.id.as_str())
+                    .map_or(crate::auth::LOCAL, String::as_str);
                 crate::auth::with_writer(m, w)
             })
             .collect(),
@@ -128,7 +130,9 @@ async fn get_mission(
 ) -> Result<axum::Json<serde_json::Value>, ApiError> {
     let mission = load(&state, &id).await?;
     let writers = state.store.mission_writers(Some(&id)).await?;
-    let w = writers.get(id.as_str()).map_or(crate::auth::LOCAL, String::as_str);
+    let w = writers
+        .get(id.as_str())
+        .map_or(crate::auth::LOCAL, String::as_str);
     Ok(axum::Json(crate::auth::with_writer(&mission, w)))
 }
 

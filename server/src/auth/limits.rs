@@ -132,7 +132,16 @@ mod tests {
             r.check(&a, Access::Write).unwrap();
         }
         let e = r.check(&a, Access::Write).unwrap_err();
-        assert!(matches!(e, ApiError::TooManyRequests { retry_after_s: 1, .. }), "{e:?}");
+        assert!(
+            matches!(
+                e,
+                ApiError::TooManyRequests {
+                    retry_after_s: 1,
+                    ..
+                }
+            ),
+            "{e:?}"
+        );
         // Ingest is untouched by the write flood, and reads are never limited.
         r.check(&a, Access::Ingest).unwrap();
         r.check(&a, Access::Ingest).unwrap();

@@ -242,7 +242,9 @@ pub fn credentials(headers: &HeaderMap) -> Result<Option<String>, ApiError> {
             .decode(rest)
             .ok()
             .and_then(|b| String::from_utf8(b).ok())
-            .ok_or_else(|| ApiError::Unauthorized("the Basic credentials are not valid base64 text".into()))?;
+            .ok_or_else(|| {
+                ApiError::Unauthorized("the Basic credentials are not valid base64 text".into())
+            })?;
         let (user, pass) = decoded.split_once(':').unwrap_or((&decoded, ""));
         let token = if pass.is_empty() { user } else { pass };
         return Ok(Some(token.to_string()));
@@ -268,7 +270,9 @@ impl TokenCache {
         }
     }
 
-    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, (Option<(Arc<str>, Role)>, Instant)>> {
+    fn lock(
+        &self,
+    ) -> std::sync::MutexGuard<'_, HashMap<String, (Option<(Arc<str>, Role)>, Instant)>> {
         self.entries
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
@@ -402,10 +406,19 @@ mod tests {
         assert_eq!(a(Method::GET, "/api/v1/missions/x/telemetry"), Access::Read);
         assert_eq!(a(Method::POST, "/api/v1/missions"), Access::Admin);
         assert_eq!(a(Method::DELETE, "/api/v1/missions/x"), Access::Admin);
-        assert_eq!(a(Method::POST, "/api/v1/missions/x/obstacles"), Access::Ingest);
-        assert_eq!(a(Method::POST, "/api/v1/missions/x/telemetry"), Access::Ingest);
+        assert_eq!(
+            a(Method::POST, "/api/v1/missions/x/obstacles"),
+            Access::Ingest
+        );
+        assert_eq!(
+            a(Method::POST, "/api/v1/missions/x/telemetry"),
+            Access::Ingest
+        );
         assert_eq!(a(Method::POST, "/api/v1/missions/x/plan"), Access::Write);
-        assert_eq!(a(Method::POST, "/api/v1/missions/x/plans/p/replay"), Access::Write);
+        assert_eq!(
+            a(Method::POST, "/api/v1/missions/x/plans/p/replay"),
+            Access::Write
+        );
         assert_eq!(a(Method::POST, "/api/v1/reactive/offset"), Access::Read);
         assert_eq!(a(Method::PUT, "/anything"), Access::Admin);
     }
@@ -430,7 +443,10 @@ mod tests {
         h.insert(header::AUTHORIZATION, "Bearer jink_abc".parse().unwrap());
         assert_eq!(credentials(&h).unwrap().as_deref(), Some("jink_abc"));
         // "op:jink_abc"
-        h.insert(header::AUTHORIZATION, "Basic b3A6amlua19hYmM=".parse().unwrap());
+        h.insert(
+            header::AUTHORIZATION,
+            "Basic b3A6amlua19hYmM=".parse().unwrap(),
+        );
         assert_eq!(credentials(&h).unwrap().as_deref(), Some("jink_abc"));
         h.insert(header::AUTHORIZATION, "Digest x".parse().unwrap());
         assert!(credentials(&h).is_err());

@@ -166,7 +166,8 @@ pub struct AccessArgs {
 
 /// Seconds as a duration, at least a millisecond (a non-finite or negative value is 1 ms).
 fn secs(s: f64) -> std::time::Duration {
-    std::time::Duration::try_from_secs_f64(s.max(0.001)).unwrap_or(std::time::Duration::from_secs(1))
+    std::time::Duration::try_from_secs_f64(s.max(0.001))
+        .unwrap_or(std::time::Duration::from_secs(1))
 }
 
 impl AccessArgs {

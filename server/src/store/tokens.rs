@@ -24,7 +24,9 @@ pub struct TokenRow {
 pub enum CreateTokenError {
     /// A token (valid or revoked) already has this name: names identify writers, so a name
     /// is never reused.
-    #[error("a token named '{0}' already exists (revoked tokens keep their names); choose another name")]
+    #[error(
+        "a token named '{0}' already exists (revoked tokens keep their names); choose another name"
+    )]
     NameTaken(String),
     /// The database failed.
     #[error(transparent)]

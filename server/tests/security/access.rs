@@ -27,7 +27,10 @@ async fn no_token_gets_401_on_a_non_loopback_bind() {
     let admin = db.create_token("ops", "admin");
     let s = Server::start(&db, &["--bind", "0.0.0.0:0"]);
     let r = s.get("/api/v1/missions", None).await;
-    let challenge = r.headers()["www-authenticate"].to_str().unwrap().to_string();
+    let challenge = r.headers()["www-authenticate"]
+        .to_str()
+        .unwrap()
+        .to_string();
     assert!(challenge.starts_with("Bearer"), "{challenge}");
     let p = problem(r, 401).await;
     assert_eq!(p["type"], "urn:jink:problem:unauthorized");
@@ -57,7 +60,11 @@ async fn a_read_token_cannot_post_and_nothing_is_stored() {
     let s = Server::start(&db, &["--bind", "127.0.0.1:0", "--auth", "on"]);
     // Missions need admin.
     let r = s
-        .post("/api/v1/missions", &crate::support::fixture("mission_2021_webster_field.json"), Some(&write))
+        .post(
+            "/api/v1/missions",
+            &crate::support::fixture("mission_2021_webster_field.json"),
+            Some(&write),
+        )
         .await;
     assert_eq!(problem(r, 403).await["type"], "urn:jink:problem:forbidden");
     let id = s.webster(Some(&admin)).await;
@@ -66,24 +73,82 @@ async fn a_read_token_cannot_post_and_nothing_is_stored() {
     let p = problem(s.post(&obs, &body, Some(&read)).await, 403).await;
     assert!(p["detail"].as_str().unwrap().contains("viewer"), "{p}");
     let tel = json!({"t": 1_700_000_000.0, "lat": 38.1447, "lon": -76.428, "alt_msl_m": 61.0, "heading_deg": 60.0});
-    problem(s.post(&format!("/api/v1/missions/{id}/telemetry"), &tel, Some(&read)).await, 403).await;
-    problem(s.post(&format!("/api/v1/missions/{id}/plan"), &json!({}), Some(&read)).await, 403).await;
-    let r = s.client.delete(s.url(&format!("/api/v1/missions/{id}"))).bearer_auth(&write).send().await.unwrap();
+    problem(
+        s.post(
+            &format!("/api/v1/missions/{id}/telemetry"),
+            &tel,
+            Some(&read),
+        )
+        .await,
+        403,
+    )
+    .await;
+    problem(
+        s.post(
+            &format!("/api/v1/missions/{id}/plan"),
+            &json!({}),
+            Some(&read),
+        )
+        .await,
+        403,
+    )
+    .await;
+    let r = s
+        .client
+        .delete(s.url(&format!("/api/v1/missions/{id}")))
+        .bearer_auth(&write)
+        .send()
+        .await
+        .unwrap();
     problem(r, 403).await;
     // Nothing was stored by the refused requests.
-    let listed: Value = s.get(&format!("/api/v1/missions/{id}/observations"), Some(&read)).await.json().await.unwrap();
+    let listed: Value = s
+        .get(&format!("/api/v1/missions/{id}/observations"), Some(&read))
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(listed.as_array().unwrap().len(), 0, "{listed}");
-    let listed: Value = s.get(&format!("/api/v1/missions/{id}/telemetry"), Some(&read)).await.json().await.unwrap();
+    let listed: Value = s
+        .get(&format!("/api/v1/missions/{id}/telemetry"), Some(&read))
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(listed.as_array().unwrap().len(), 0, "{listed}");
     // The write token may post; what it stored names it.
     assert_eq!(s.post(&obs, &body, Some(&write)).await.status(), 202);
-    assert_eq!(s.post(&format!("/api/v1/missions/{id}/telemetry"), &tel, Some(&write)).await.status(), 202);
-    let listed: Value = s.get(&format!("/api/v1/missions/{id}/observations"), Some(&read)).await.json().await.unwrap();
+    assert_eq!(
+        s.post(
+            &format!("/api/v1/missions/{id}/telemetry"),
+            &tel,
+            Some(&write)
+        )
+        .await
+        .status(),
+        202
+    );
+    let listed: Value = s
+        .get(&format!("/api/v1/missions/{id}/observations"), Some(&read))
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(listed.as_array().unwrap().len(), 1, "{listed}");
     assert_eq!(listed[0]["written_by"], "gcs-1", "{listed}");
-    let listed: Value = s.get(&format!("/api/v1/missions/{id}/telemetry"), Some(&read)).await.json().await.unwrap();
+    let listed: Value = s
+        .get(&format!("/api/v1/missions/{id}/telemetry"), Some(&read))
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(listed[0]["written_by"], "gcs-1", "{listed}");
-    let mission: Value = s.get(&format!("/api/v1/missions/{id}"), Some(&read)).await.json().await.unwrap();
+    let mission: Value = s
+        .get(&format!("/api/v1/missions/{id}"), Some(&read))
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(mission["written_by"], "ops", "{mission}");
 }
 
@@ -93,10 +158,25 @@ async fn without_a_token_on_loopback_the_writer_is_local() {
     let s = Server::start(&db, &["--bind", "127.0.0.1:0"]);
     let id = s.webster(None).await;
     let body = json!({"observations": [observation("0", 1_700_000_000.0)]});
-    assert_eq!(s.post(&format!("/api/v1/missions/{id}/obstacles"), &body, None).await.status(), 202);
-    let listed: Value = s.get(&format!("/api/v1/missions/{id}/observations"), None).await.json().await.unwrap();
+    assert_eq!(
+        s.post(&format!("/api/v1/missions/{id}/obstacles"), &body, None)
+            .await
+            .status(),
+        202
+    );
+    let listed: Value = s
+        .get(&format!("/api/v1/missions/{id}/observations"), None)
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(listed[0]["written_by"], "local", "{listed}");
-    let mission: Value = s.get(&format!("/api/v1/missions/{id}"), None).await.json().await.unwrap();
+    let mission: Value = s
+        .get(&format!("/api/v1/missions/{id}"), None)
+        .await
+        .json()
+        .await
+        .unwrap();
     assert_eq!(mission["written_by"], "local", "{mission}");
 }
 
@@ -107,7 +187,14 @@ async fn a_revoked_token_stops_working_on_both_replicas_of_a_postgres_pair() {
     };
     let admin = db.create_token("ops", "admin");
     let gcs = db.create_token("gcs-1", "write");
-    let args = ["--bind", "127.0.0.1:0", "--auth", "on", "--token-cache-s", "0.5"];
+    let args = [
+        "--bind",
+        "127.0.0.1:0",
+        "--auth",
+        "on",
+        "--token-cache-s",
+        "0.5",
+    ];
     let a = Server::start(&db, &args);
     let b = Server::start(&db, &args);
     let id = a.webster(Some(&admin)).await;
@@ -117,9 +204,18 @@ async fn a_revoked_token_stops_working_on_both_replicas_of_a_postgres_pair() {
         assert_eq!(s.post(&obs, &body, Some(&gcs)).await.status(), 202);
     }
     let out = db.jink_token(&["revoke", "gcs-1"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let listed = String::from_utf8(db.jink_token(&["list"]).stdout).unwrap();
-    assert!(listed.lines().any(|l| l.starts_with("gcs-1") && !l.trim_end().ends_with('-')), "{listed}");
+    assert!(
+        listed
+            .lines()
+            .any(|l| l.starts_with("gcs-1") && !l.trim_end().ends_with('-')),
+        "{listed}"
+    );
     for s in [&a, &b] {
         let start = Instant::now();
         loop {
@@ -129,7 +225,11 @@ async fn a_revoked_token_stops_working_on_both_replicas_of_a_postgres_pair() {
                 problem(r, 401).await;
                 break;
             }
-            assert!(start.elapsed() < Duration::from_secs(5), "still {} after 5 s", r.status());
+            assert!(
+                start.elapsed() < Duration::from_secs(5),
+                "still {} after 5 s",
+                r.status()
+            );
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
         // The other tokens keep working.

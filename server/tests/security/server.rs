@@ -57,7 +57,11 @@ impl Db {
     /// `jink token create --name NAME --role ROLE`: the token printed.
     pub fn create_token(&self, name: &str, role: &str) -> String {
         let out = self.jink_token(&["create", "--name", name, "--role", role]);
-        assert!(out.status.success(), "token create: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "token create: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         let token = String::from_utf8(out.stdout).unwrap().trim().to_string();
         assert!(token.starts_with("jink_"), "{token}");
         token
@@ -119,7 +123,8 @@ pub struct Server {
 impl Server {
     /// `jink serve --database-url DB.url ARGS` (ARGS should include `--bind`).
     pub fn start(db: &Db, args: &[&str]) -> Server {
-        Self::try_start(db, args).unwrap_or_else(|log| panic!("jink did not start; its log:\n{log}"))
+        Self::try_start(db, args)
+            .unwrap_or_else(|log| panic!("jink did not start; its log:\n{log}"))
     }
 
     /// As [`Self::start`], or the log when it exits without listening.
@@ -184,7 +189,11 @@ impl Server {
     /// Uploads the Webster Field mission with `token`; its id.
     pub async fn webster(&self, token: Option<&str>) -> String {
         let r = self
-            .post("/api/v1/missions", &fixture("mission_2021_webster_field.json"), token)
+            .post(
+                "/api/v1/missions",
+                &fixture("mission_2021_webster_field.json"),
+                token,
+            )
             .await;
         assert_eq!(r.status(), 201);
         r.json::<Value>().await.unwrap()["id"]

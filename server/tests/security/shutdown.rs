@@ -25,8 +25,15 @@ async fn sigterm_during_ingest_exits_0_and_loses_nothing_acknowledged() {
                 while !stop.load(Ordering::Relaxed) {
                     i += 1;
                     let t = 1_700_000_000.0 + f64::from(i) * 0.01;
-                    let rows: Vec<Value> = (0..5).map(|k| observation(&format!("{w}-{k}"), t)).collect();
-                    match client.post(&url).json(&json!({"observations": rows})).send().await {
+                    let rows: Vec<Value> = (0..5)
+                        .map(|k| observation(&format!("{w}-{k}"), t))
+                        .collect();
+                    match client
+                        .post(&url)
+                        .json(&json!({"observations": rows}))
+                        .send()
+                        .await
+                    {
                         Ok(r) if r.status() == 202 => {
                             let v: Value = r.json().await.unwrap();
                             acknowledged += v["accepted"].as_u64().unwrap();
@@ -46,7 +53,10 @@ async fn sigterm_during_ingest_exits_0_and_loses_nothing_acknowledged() {
         if let Some(st) = s.child.try_wait().unwrap() {
             break st;
         }
-        assert!(start.elapsed() < Duration::from_secs(20), "jink did not exit within 20 s of SIGTERM");
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "jink did not exit within 20 s of SIGTERM"
+        );
         tokio::time::sleep(Duration::from_millis(50)).await;
     };
     stop.store(true, Ordering::Relaxed);
@@ -54,7 +64,11 @@ async fn sigterm_during_ingest_exits_0_and_loses_nothing_acknowledged() {
     for w in writers {
         acknowledged += w.await.unwrap();
     }
-    assert!(status.success(), "exit status {status:?}; log:\n{}", s.log());
+    assert!(
+        status.success(),
+        "exit status {status:?}; log:\n{}",
+        s.log()
+    );
     assert!(acknowledged > 0);
     drop(s);
     let again = Server::start(&db, &["--bind", "127.0.0.1:0"]);

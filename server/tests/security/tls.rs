@@ -70,8 +70,11 @@ async fn a_tls_round_trip_with_a_self_signed_certificate() {
 
     // Plain HTTP on the TLS port gets no HTTP answer.
     let mut tcp = tokio::net::TcpStream::connect(&addr).await.unwrap();
-    tcp.write_all(request("/healthz", None).as_bytes()).await.unwrap();
+    tcp.write_all(request("/healthz", None).as_bytes())
+        .await
+        .unwrap();
     let mut out = Vec::new();
-    let _ = tokio::time::timeout(std::time::Duration::from_secs(5), tcp.read_to_end(&mut out)).await;
+    let _ =
+        tokio::time::timeout(std::time::Duration::from_secs(5), tcp.read_to_end(&mut out)).await;
     assert!(!String::from_utf8_lossy(&out).contains("200 OK"));
 }
