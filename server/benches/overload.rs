@@ -172,10 +172,10 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
                                 "telemetry",
                                 json!({"t": t, "lat": 38.1447, "lon": -76.428, "alt_msl_m": 61.0, "heading_deg": 60.0, "speed_mps": 20.0}),
                             )];
-                            if k % 5 == 0 {
+                            if k.is_multiple_of(5) {
                                 let obs: Vec<Value> = (0..3)
                                     .map(|o| json!({"obstacle_id": format!("{}", o + 3 * (c % 3)), "t": t,
-                                        "lat": 38.1455 + f64::from(o) * 1e-4, "lon": -76.4245 + (k as f64) * 1e-5,
+                                        "lat": 38.1455 + o as f64 * 1e-4, "lon": -76.4245 + (k as f64) * 1e-5,
                                         "alt_msl_m": 60.0, "radius_m": 20.0}))
                                     .collect();
                                 reqs.push(("obstacles", json!({"observations": obs})));
@@ -189,19 +189,27 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
                                 let resp = r.send().await;
                                 let ms = sent.elapsed().as_secs_f64() * 1e3;
                                 let sec = sent.duration_since(start).as_secs();
-                                let mut t = tally.lock().unwrap();
-                                match resp {
+                                // Read the answer before taking the tally's lock.
+                                let answer = match resp {
                                     Ok(resp) => {
                                         let st = resp.status().as_u16();
+                                        let accepted = if st == 202 && what == "obstacles" {
+                                            let v: Value = resp.json().await.unwrap_or_default();
+                                            v["accepted"].as_u64().unwrap_or(0)
+                                        } else {
+                                            0
+                                        };
+                                        Ok((st, accepted))
+                                    }
+                                    Err(e) => Err(e.to_string()),
+                                };
+                                let mut t = tally.lock().unwrap();
+                                match answer {
+                                    Ok((st, accepted)) => {
                                         *t.statuses.entry(format!("{what} {st}")).or_default() += 1;
                                         if st == 202 {
                                             t.ingest.push((sec, ms));
-                                            if what == "obstacles" {
-                                                drop(t);
-                                                let v: Value = resp.json().await.unwrap_or_default();
-                                                let acc = v["accepted"].as_u64().unwrap_or(0);
-                                                tally.lock().unwrap().acknowledged += acc;
-                                            }
+                                            t.acknowledged += accepted;
                                         } else {
                                             t.bad.push(format!("{what} {st}"));
                                         }

@@ -254,11 +254,15 @@ pub fn credentials(headers: &HeaderMap) -> Result<Option<String>, ApiError> {
     ))
 }
 
+/// A cached verdict: the token's name and role (`None`: no valid token), and when it was
+/// looked up.
+type Verdict = (Option<(Arc<str>, Role)>, Instant);
+
 /// Verified tokens, remembered for a short time so that a request costs no database read.
 #[derive(Debug)]
 pub struct TokenCache {
     ttl: Duration,
-    entries: Mutex<HashMap<String, (Option<(Arc<str>, Role)>, Instant)>>,
+    entries: Mutex<HashMap<String, Verdict>>,
 }
 
 impl TokenCache {
@@ -270,9 +274,7 @@ impl TokenCache {
         }
     }
 
-    fn lock(
-        &self,
-    ) -> std::sync::MutexGuard<'_, HashMap<String, (Option<(Arc<str>, Role)>, Instant)>> {
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, Verdict>> {
         self.entries
             .lock()
             .unwrap_or_else(std::sync::PoisonError::into_inner)
