@@ -1,6 +1,5 @@
 //! The application: shared state, the router with its middleware, and the server loop.
 
-use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -24,6 +23,44 @@ pub struct Settings {
     pub(crate) max_body_bytes: usize,
     /// Limits of the live mission state.
     pub(crate) live: crate::live::LiveConfig,
+    /// Access control, overload limits and CORS (issue 12).
+    pub(crate) access: AccessSettings,
+}
+
+/// Access control, overload limits and CORS (see [`crate::auth`] and [`crate::limits`]).
+#[derive(Debug, Clone)]
+pub struct AccessSettings {
+    /// Whether requests need a token.
+    pub(crate) auth: crate::auth::AuthMode,
+    /// How long a token's verdict is remembered (revocations take this long to reach
+    /// every replica).
+    pub(crate) token_cache: std::time::Duration,
+    /// Per-token write rates.
+    pub(crate) rates: crate::auth::RateSettings,
+    /// Items per request.
+    pub(crate) items: crate::limits::ItemLimits,
+    /// Plan computations at a time, and admitted plans waiting for one.
+    pub(crate) plan_workers: usize,
+    pub(crate) plan_queue: usize,
+    /// Longest time before a request's answer starts.
+    pub(crate) request_timeout: std::time::Duration,
+    /// Origins allowed by CORS (none: no CORS headers; `*`: any).
+    pub(crate) cors_origins: Vec<String>,
+}
+
+impl Default for AccessSettings {
+    fn default() -> Self {
+        Self {
+            auth: crate::auth::AuthMode::Optional,
+            token_cache: std::time::Duration::from_secs(2),
+            rates: crate::auth::RateSettings::default(),
+            items: crate::limits::ItemLimits::default(),
+            plan_workers: crate::limits::PlanPool::default_workers(),
+            plan_queue: 16,
+            request_timeout: crate::limits::DEFAULT_REQUEST_TIMEOUT,
+            cors_origins: Vec::new(),
+        }
+    }
 }
 
 impl Default for Settings {
@@ -31,6 +68,7 @@ impl Default for Settings {
         Self {
             max_body_bytes: 2 * 1024 * 1024,
             live: crate::live::LiveConfig::default(),
+            access: AccessSettings::default(),
         }
     }
 }
@@ -49,6 +87,10 @@ pub struct AppState {
     /// Per-mission live state: predictor and risk-map snapshots (built lazily from the
     /// store).
     pub(crate) live: Arc<crate::live::LiveStates>,
+    /// The bounded pool plan computations run on.
+    pub(crate) plans: Arc<crate::limits::PlanPool>,
+    /// Token cache and per-token rate buckets.
+    pub(crate) guard: Arc<crate::auth::Guard>,
 }
 
 impl AppState {
@@ -59,9 +101,17 @@ impl AppState {
         Self {
             store,
             metrics: Arc::new(Metrics::default()),
-            settings: Arc::new(settings),
             cpu: Arc::new(Semaphore::new(cores)),
             live: Arc::new(crate::live::LiveStates::new(settings_live)),
+            plans: Arc::new(crate::limits::PlanPool::new(
+                settings.access.plan_workers,
+                settings.access.plan_queue,
+            )),
+            guard: Arc::new(crate::auth::Guard::new(
+                settings.access.token_cache,
+                settings.access.rates,
+            )),
+            settings: Arc::new(settings),
         }
     }
 
@@ -96,7 +146,7 @@ pub fn router(state: AppState) -> Router {
         .layer(DefaultBodyLimit::max(max_body))
         .with_state(state.clone())
         .merge(docs);
-    with_middleware(routes, state)
+    with_middleware(crate::limits::guarded(routes, &state), state)
 }
 
 /// Wraps `routes` in the service middleware, innermost first: a panic in a handler becomes
@@ -174,30 +224,17 @@ async fn observe(State(state): State<AppState>, req: Request, next: Next) -> Res
     resp
 }
 
-/// Serves `state` on `addr` until Ctrl-C / SIGTERM. Prints the bound address on stdout
-/// (`jink listening on http://ADDR`) so scripts and tests can use port 0.
-///
-/// # Errors
-/// When the address cannot be bound.
-pub async fn serve(addr: SocketAddr, state: AppState) -> std::io::Result<()> {
-    serve_on(tokio::net::TcpListener::bind(addr).await?, state).await
-}
-
 /// Serves `state` on a bound `listener` until Ctrl-C / SIGTERM (what [`serve`] does after
 /// binding; `jink demo` binds first to learn its address).
 ///
 /// # Errors
 /// When the listener's address cannot be read.
 pub async fn serve_on(listener: tokio::net::TcpListener, state: AppState) -> std::io::Result<()> {
-    let local = listener.local_addr()?;
-    println!("jink listening on http://{local}");
-    tracing::info!(%local, backend = ?state.store.backend(), "serving");
-    axum::serve(listener, router(state).into_make_service())
-        .with_graceful_shutdown(shutdown_signal())
-        .await
+    crate::net::serve_with(listener, state, crate::net::NetOptions::default()).await
 }
 
-async fn shutdown_signal() {
+/// Resolves on Ctrl-C or SIGTERM, after which event streams end (see [`crate::net`]).
+pub(crate) async fn shutdown_signal() {
     let ctrl_c = async {
         let _ = tokio::signal::ctrl_c().await;
     };

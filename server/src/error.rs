@@ -36,6 +36,30 @@ pub enum ApiError {
     /// Something failed inside the service (500); the detail is logged, not returned.
     #[error("internal error: {0}")]
     Internal(String),
+    /// No credentials, or credentials that name no valid token (401).
+    #[error("{0}")]
+    Unauthorized(String),
+    /// The token's role does not allow this request (403).
+    #[error("{0}")]
+    Forbidden(String),
+    /// More items in one request than the server accepts (413); the pointer names the list.
+    #[error("{pointer} has {count} items; at most {max} are accepted per request")]
+    TooManyItems {
+        pointer: String,
+        count: usize,
+        max: usize,
+    },
+    /// The token's write rate is exhausted (429); retry after `retry_after_s`.
+    #[error("{detail}")]
+    TooManyRequests { detail: String, retry_after_s: u64 },
+    /// The service is saturated or the request took too long (503); retry after
+    /// `retry_after_s`.
+    #[error("{detail}")]
+    Unavailable {
+        slug: &'static str,
+        detail: String,
+        retry_after_s: u64,
+    },
 }
 
 impl ApiError {
@@ -76,6 +100,11 @@ impl ApiError {
             Self::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             Self::Route { status, .. } => *status,
             Self::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+            Self::Unauthorized(_) => StatusCode::UNAUTHORIZED,
+            Self::Forbidden(_) => StatusCode::FORBIDDEN,
+            Self::TooManyItems { .. } => StatusCode::PAYLOAD_TOO_LARGE,
+            Self::TooManyRequests { .. } => StatusCode::TOO_MANY_REQUESTS,
+            Self::Unavailable { .. } => StatusCode::SERVICE_UNAVAILABLE,
         }
     }
 
@@ -92,6 +121,11 @@ impl ApiError {
             }
             Self::Route { .. } => ("no-such-route", "No such route"),
             Self::Internal(_) => ("internal", "Internal server error"),
+            Self::Unauthorized(_) => ("unauthorized", "Authentication required"),
+            Self::Forbidden(_) => ("forbidden", "Not allowed for this token's role"),
+            Self::TooManyItems { .. } => ("too-many-items", "Too many items in one request"),
+            Self::TooManyRequests { .. } => ("rate-limited", "Too many requests"),
+            Self::Unavailable { slug, .. } => (slug, "Service unavailable, retry later"),
         }
     }
 
@@ -114,6 +148,10 @@ impl ApiError {
             Self::Internal(_) => (
                 "the service failed to handle the request; it has been logged".into(),
                 vec![],
+            ),
+            Self::TooManyItems { pointer, .. } => (
+                self.to_string(),
+                vec![FieldError::new(pointer.clone(), self.to_string())],
             ),
             other => (other.to_string(), vec![]),
         };
@@ -159,6 +197,24 @@ impl IntoResponse for ApiError {
         // The logging middleware reads this to log internal failures with their cause.
         if let Self::Internal(msg) = &self {
             resp.extensions_mut().insert(InternalCause(msg.clone()));
+        }
+        match &self {
+            Self::TooManyRequests { retry_after_s, .. }
+            | Self::Unavailable { retry_after_s, .. } => {
+                resp.headers_mut()
+                    .insert(header::RETRY_AFTER, HeaderValue::from(*retry_after_s));
+            }
+            Self::Unauthorized(_) => {
+                // Bearer for API clients; Basic makes a browser prompt (the token is the
+                // password), so the operator page works on a guarded bind.
+                resp.headers_mut().insert(
+                    header::WWW_AUTHENTICATE,
+                    HeaderValue::from_static(
+                        r#"Bearer realm="jink", Basic realm="jink", charset="UTF-8""#,
+                    ),
+                );
+            }
+            _ => {}
         }
         resp
     }

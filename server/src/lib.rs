@@ -13,9 +13,11 @@
 
 mod api;
 mod app;
+mod auth;
 mod cli;
 mod error;
 mod extract;
+mod limits;
 // Dead items in here (`MissionLive::mission`, `LiveStates::len`/`is_empty`,
 // `PlanView::variability`, `SERVICE_CELL_M`, `SERVICE_MARGIN_M`, `SLICE_DT_S`,
 // `Snapshot::build_ms`) came to light when this crate's API narrowed; they are left to the
@@ -23,6 +25,7 @@ mod extract;
 #[allow(dead_code)]
 mod live;
 mod metrics;
+mod net;
 mod page;
 mod render;
 mod store;

@@ -31,6 +31,69 @@ pub fn complete(doc: &mut Value) {
     add_mission_links(doc);
     constrain_array_items(doc);
     binary_images(doc);
+    add_access(doc);
+}
+
+/// Access (issue 12): the bearer scheme, declared optional globally (`{}` or `bearer`: a
+/// loopback bind takes requests without a token; any other bind requires one), and the
+/// statuses the guard and the overload limits answer: 401/403 on every operation but
+/// `GET /healthz`, 429 on writes, 503 (request timeout, full plan pool) everywhere.
+fn add_access(doc: &mut Value) {
+    doc["components"]["securitySchemes"]["bearer"] = json!({
+        "type": "http",
+        "scheme": "bearer",
+        "description": "A token from `jink token create --name NAME --role read|write|admin`. \
+    Required on every request but GET /healthz when jink is bound to a non-loopback address (or run with --auth on); \
+    optional on loopback. `read` may GET, `write` may also post telemetry, obstacles and plans, `admin` may also create and delete missions."
+    });
+    doc["security"] = json!([{}, {"bearer": []}]);
+    for schema in ["Mission", "ObservationOut", "AircraftTelemetryOut"] {
+        let props = &mut doc["components"]["schemas"][schema]["properties"];
+        if props.is_object() {
+            props["written_by"] = json!({
+                "type": "string",
+                "description": "The name of the token that stored it, or `local` (no token: a loopback client, or --auth off)"
+            });
+        }
+    }
+    let Some(paths) = doc["paths"].as_object_mut() else {
+        return;
+    };
+    for (path, ops) in paths.iter_mut() {
+        let Some(ops) = ops.as_object_mut() else {
+            continue;
+        };
+        for (method, op) in ops.iter_mut() {
+            let mut add = |status: &str, description: &str| {
+                let responses = &mut op["responses"];
+                if responses.get(status).is_none() {
+                    responses[status] = problem(description);
+                }
+            };
+            if path == "/healthz" {
+                add(
+                    "503",
+                    "The request timed out (`Retry-After` says when to retry)",
+                );
+                continue;
+            }
+            add(
+                "401",
+                "No token, or a token that is unknown or revoked, where one is required",
+            );
+            add("403", "The token's role does not allow this operation");
+            if method != "get" {
+                add(
+                    "429",
+                    "The token's write rate is exhausted; `Retry-After` says when to retry",
+                );
+            }
+            add(
+                "503",
+                "The plan pool is full or the request timed out; `Retry-After` says when to retry",
+            );
+        }
+    }
 }
 
 /// Image responses are binary strings (utoipa describes a `Vec<u8>` body as an array of

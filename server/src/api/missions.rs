@@ -46,6 +46,7 @@ async fn create_mission(
 ) -> Result<Response, ApiError> {
     require_json(&headers)?;
     let value: serde_json::Value = parse_json(&body)?;
+    crate::limits::check_items(&value, &state.settings.access.items)?;
     let is_list = value.is_array();
     let read = wire::domain::read_missions(value, params.format)?;
     let (format, now) = (read.format, now_s());
@@ -67,10 +68,15 @@ async fn create_mission(
         "missions stored"
     );
     let location = format!("/api/v1/missions/{}", missions[0].id);
+    let writer = crate::auth::writer();
     let body = if is_list {
-        serde_json::to_vec(&missions)
+        let all: Vec<serde_json::Value> = missions
+            .iter()
+            .map(|m| crate::auth::with_writer(m, &writer))
+            .collect();
+        serde_json::to_vec(&all)
     } else {
-        serde_json::to_vec(&missions[0])
+        serde_json::to_vec(&crate::auth::with_writer(&missions[0], &writer))
     }
     .map_err(|e| ApiError::Internal(e.to_string()))?;
     let mut resp = (StatusCode::CREATED, body).into_response();
@@ -96,8 +102,20 @@ fn new_mission_id() -> String {
     responses((status = 200, description = "All stored missions", body = [Mission])))]
 async fn list_missions(
     State(state): State<AppState>,
-) -> Result<axum::Json<Vec<Mission>>, ApiError> {
-    Ok(axum::Json(state.store.list_missions().await?))
+) -> Result<axum::Json<Vec<serde_json::Value>>, ApiError> {
+    let writers = state.store.mission_writers(None).await?;
+    let missions = state.store.list_missions().await?;
+    Ok(axum::Json(
+        missions
+            .iter()
+            .map(|m| {
+                let w = writers
+                    .get(m.id.as_str())
+                    .map_or(crate::auth::LOCAL, String::as_str);
+                crate::auth::with_writer(m, w)
+            })
+            .collect(),
+    ))
 }
 
 /// One mission in native form.
@@ -109,13 +127,13 @@ async fn list_missions(
 async fn get_mission(
     State(state): State<AppState>,
     Path(id): Path<MissionId>,
-) -> Result<axum::Json<Mission>, ApiError> {
-    state
-        .store
-        .get_mission(&id)
-        .await?
-        .map(axum::Json)
-        .ok_or_else(|| ApiError::not_found("mission", id.as_str()))
+) -> Result<axum::Json<serde_json::Value>, ApiError> {
+    let mission = load(&state, &id).await?;
+    let writers = state.store.mission_writers(Some(&id)).await?;
+    let w = writers
+        .get(id.as_str())
+        .map_or(crate::auth::LOCAL, String::as_str);
+    Ok(axum::Json(crate::auth::with_writer(&mission, w)))
 }
 
 /// Delete a mission and all telemetry, plans and state recorded for it.

@@ -106,6 +106,8 @@ async fn create_plan(
     Path(id): Path<MissionId>,
     ApiJson(body): ApiJson<PlanBody>,
 ) -> Result<Response, ApiError> {
+    // Refused at once (503) when the plan pool is full, before any work.
+    let ticket = state.plans.admit()?;
     let mission = super::missions::load(&state, &id).await?;
     let latest = state.store.latest_plan_revision(&id).await?;
     let base_revision = body.base_revision.unwrap_or(0);
@@ -197,8 +199,8 @@ async fn create_plan(
     let (m2, in2) = (mission.clone(), inputs.clone());
     let cancel = CancelOnDrop::default();
     let flag = cancel.flag();
-    let computed = state
-        .run_cpu(move || compute(&m2, &in2, &snap, Some(flag)))
+    let computed = ticket
+        .run(move || compute(&m2, &in2, &snap, Some(flag)))
         .await??;
     let plan_id = PlanId(format!("{:016x}", rand::random::<u64>()));
     let revision = latest + 1;
@@ -271,6 +273,7 @@ async fn replay_plan(
     State(state): State<AppState>,
     Path((id, plan_id)): Path<(MissionId, PlanId)>,
 ) -> Result<axum::Json<ReplayOut>, ApiError> {
+    let ticket = state.plans.admit()?;
     let mission = super::missions::load(&state, &id).await?;
     let row = state
         .store
@@ -284,8 +287,8 @@ async fn replay_plan(
     let in2 = inputs.clone();
     let cancel = CancelOnDrop::default();
     let flag = cancel.flag();
-    let computed = state
-        .run_cpu(move || compute(&mission, &in2, &snap, Some(flag)))
+    let computed = ticket
+        .run(move || compute(&mission, &in2, &snap, Some(flag)))
         .await??;
     let replayed = plan_out(
         &id,

@@ -71,6 +71,7 @@ async fn post_obstacles(
 ) -> Result<(StatusCode, axum::Json<IngestResult>), ApiError> {
     crate::extract::require_json(&headers)?;
     let value: serde_json::Value = parse_json(&body)?;
+    crate::limits::check_items(&value, &state.settings.access.items)?;
     let received = now_s();
     let rows = parse_observations(value, params.time.map(|t| t.0), received)?;
     // The insert itself answers "no such mission" (a foreign key), in one round trip.
@@ -104,13 +105,17 @@ async fn list_observations(
     State(state): State<AppState>,
     Path(id): Path<MissionId>,
     ApiQuery(q): ApiQuery<ObservationQuery>,
-) -> Result<axum::Json<Vec<ObservationOut>>, ApiError> {
+) -> Result<axum::Json<Vec<serde_json::Value>>, ApiError> {
     super::missions::ensure_exists(&state, &id).await?;
     let rows = state
         .store
-        .list_observations(&id, q.obstacle_id.as_deref(), q.after.map(|t| t.0))
+        .list_observations_written(&id, q.obstacle_id.as_deref(), q.after.map(|t| t.0))
         .await?;
-    Ok(axum::Json(rows.iter().map(ObservationOut::from).collect()))
+    Ok(axum::Json(
+        rows.iter()
+            .map(|(r, w)| crate::auth::with_writer(&ObservationOut::from(r), w))
+            .collect(),
+    ))
 }
 
 /// Post aircraft telemetry.
@@ -136,7 +141,11 @@ async fn post_telemetry(
     let received = now_s();
     let rows = match media_type(&headers) {
         MediaType::Form => vec![parse_telemetry_form(&body, received)?],
-        MediaType::Json => parse_telemetry_json(parse_json(&body)?, received)?,
+        MediaType::Json => {
+            let value: serde_json::Value = parse_json(&body)?;
+            crate::limits::check_items(&value, &state.settings.access.items)?;
+            parse_telemetry_json(value, received)?
+        }
         _ => {
             return Err(ApiError::UnsupportedMediaType(
                 "aircraft telemetry is application/json (native or interop 2019) or application/x-www-form-urlencoded (interop 2018)".into(),
@@ -170,11 +179,13 @@ async fn list_telemetry(
     State(state): State<AppState>,
     Path(id): Path<MissionId>,
     ApiQuery(q): ApiQuery<TelemetryQuery>,
-) -> Result<axum::Json<Vec<AircraftTelemetryOut>>, ApiError> {
+) -> Result<axum::Json<Vec<serde_json::Value>>, ApiError> {
     super::missions::ensure_exists(&state, &id).await?;
-    let rows = state.store.list_telemetry(&id, q.last).await?;
+    let rows = state.store.list_telemetry_written(&id, q.last).await?;
     Ok(axum::Json(
-        rows.iter().map(AircraftTelemetryOut::from).collect(),
+        rows.iter()
+            .map(|(r, w)| crate::auth::with_writer(&AircraftTelemetryOut::from(r), w))
+            .collect(),
     ))
 }
 

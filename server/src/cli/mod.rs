@@ -10,6 +10,7 @@ pub mod plan;
 pub mod reactive;
 pub mod serve;
 pub mod simulate;
+pub mod token;
 
 /// jink: ground-station planning service for fixed-wing UAVs on SUAS-style missions.
 #[derive(Debug, Parser)]
@@ -36,6 +37,8 @@ pub enum Command {
     /// Start the service on a temporary SQLite database and fly a simulated aircraft
     /// against simulated moving obstacles through its API; prints the live page's URL.
     Demo(demo::DemoArgs),
+    /// Create, list and revoke the bearer tokens of a database (`read`, `write`, `admin`).
+    Token(token::TokenArgs),
     // jink:subcommands -- add a variant here and its arm in `run` below
 }
 
@@ -49,6 +52,7 @@ pub fn run() -> ExitCode {
         Command::Plan(args) => plan::run(args),
         Command::Simulate(args) => simulate::run(args),
         Command::Demo(args) => demo::run(args),
+        Command::Token(args) => token::run(args),
         // jink:dispatch
     }
 }

@@ -1,12 +1,15 @@
 //! `jink serve`: configuration (flags with environment fallbacks) and start-up.
 
 use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, ValueEnum};
 use tracing_subscriber::EnvFilter;
 
-use crate::app::{AppState, Settings};
+use crate::app::{AccessSettings, AppState, Settings};
+use crate::auth::AuthMode;
+use crate::net::NetOptions;
 use crate::store::Store;
 
 /// Log line format.
@@ -62,6 +65,164 @@ pub struct ServeArgs {
     /// Log format on stderr. Levels come from `RUST_LOG` (default `info`).
     #[arg(long, env = "JINK_LOG_FORMAT", value_enum, default_value = "text")]
     pub log_format: LogFormat,
+
+    #[command(flatten)]
+    pub access: AccessArgs,
+}
+
+/// Whether requests need a token.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum AuthFlag {
+    /// Tokens required unless bound to a loopback address.
+    Auto,
+    /// Tokens required, also on loopback.
+    On,
+    /// No token required (a token sent is still checked and recorded as the writer).
+    Off,
+}
+
+/// Access control, TLS and overload flags of `jink serve` (see the README's "Running at
+/// the field").
+#[derive(Debug, Args)]
+pub struct AccessArgs {
+    /// `auto`: requests need a bearer token unless `--bind` is a loopback address; `on`:
+    /// always; `off`: never. With tokens required, `serve` refuses to start until a token
+    /// exists (`jink token create`).
+    #[arg(long, env = "JINK_AUTH", value_enum, default_value = "auto")]
+    pub auth: AuthFlag,
+
+    /// PEM certificate chain: serve HTTPS (with `--tls-key`).
+    #[arg(long, env = "JINK_TLS_CERT", requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+
+    /// PEM private key of `--tls-cert`.
+    #[arg(long, env = "JINK_TLS_KEY", requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+
+    /// Plan computations run at once (default: one core less than the machine has, at
+    /// least 1).
+    #[arg(long, env = "JINK_PLAN_WORKERS")]
+    pub plan_workers: Option<usize>,
+
+    /// Plan requests admitted to wait for a worker; beyond them, 503 with Retry-After.
+    #[arg(long, env = "JINK_PLAN_QUEUE", default_value_t = 16)]
+    pub plan_queue: usize,
+
+    /// Ingest requests (telemetry, obstacles) per second per token, sustained (0: no
+    /// limit); over it, 429 with Retry-After. Requests without a token are not limited.
+    #[arg(long, env = "JINK_RATE_INGEST_PER_S", default_value_t = 50.0)]
+    pub rate_ingest_per_s: f64,
+
+    /// Ingest requests a token may send in a burst.
+    #[arg(long, env = "JINK_RATE_INGEST_BURST", default_value_t = 100.0)]
+    pub rate_ingest_burst: f64,
+
+    /// Other writes (plans, replays, missions) per second per token (0: no limit).
+    #[arg(long, env = "JINK_RATE_WRITE_PER_S", default_value_t = 10.0)]
+    pub rate_write_per_s: f64,
+
+    /// Other writes a token may send in a burst.
+    #[arg(long, env = "JINK_RATE_WRITE_BURST", default_value_t = 20.0)]
+    pub rate_write_burst: f64,
+
+    /// A request whose answer has not started after this many seconds gets 503.
+    #[arg(long, env = "JINK_REQUEST_TIMEOUT_S", default_value_t = 90.0)]
+    pub request_timeout_s: f64,
+
+    /// A client must send a request's headers (and finish a TLS handshake) within this
+    /// many seconds, or its connection is closed.
+    #[arg(long, env = "JINK_HEADER_READ_TIMEOUT_S", default_value_t = 10.0)]
+    pub header_read_timeout_s: f64,
+
+    /// At SIGTERM/SIGINT, requests in flight get this many seconds to finish.
+    #[arg(long, env = "JINK_SHUTDOWN_GRACE_S", default_value_t = 10.0)]
+    pub shutdown_grace_s: f64,
+
+    /// Seconds a token's check is remembered: a revocation reaches every replica within it.
+    #[arg(long, env = "JINK_TOKEN_CACHE_S", default_value_t = 2.0)]
+    pub token_cache_s: f64,
+
+    /// Most observations in one batch (413 beyond).
+    #[arg(long, env = "JINK_MAX_OBSERVATIONS", default_value_t = 1000)]
+    pub max_observations: usize,
+
+    /// Most waypoints in a mission (413 beyond).
+    #[arg(long, env = "JINK_MAX_WAYPOINTS", default_value_t = 1000)]
+    pub max_waypoints: usize,
+
+    /// Most boundary points of one fly zone (413 beyond).
+    #[arg(long, env = "JINK_MAX_FLY_ZONE_POINTS", default_value_t = 1000)]
+    pub max_fly_zone_points: usize,
+
+    /// Most items of any other list in a request body (413 beyond).
+    #[arg(long, env = "JINK_MAX_LIST_ITEMS", default_value_t = 10_000)]
+    pub max_list_items: usize,
+
+    /// An origin allowed to call the API from a browser (CORS), e.g.
+    /// `https://gcs.example:8443`; repeat for several, `*` for any. Off by default.
+    #[arg(long = "cors-origin", env = "JINK_CORS_ORIGINS", value_delimiter = ',')]
+    pub cors_origins: Vec<String>,
+}
+
+/// Seconds as a duration, at least a millisecond (a non-finite or negative value is 1 ms).
+fn secs(s: f64) -> std::time::Duration {
+    std::time::Duration::try_from_secs_f64(s.max(0.001))
+        .unwrap_or(std::time::Duration::from_secs(1))
+}
+
+impl AccessArgs {
+    /// The auth mode for a service bound to `bind`.
+    pub fn mode(&self, bind: &SocketAddr) -> AuthMode {
+        match self.auth {
+            AuthFlag::On => AuthMode::Required,
+            AuthFlag::Off => AuthMode::Optional,
+            AuthFlag::Auto if bind.ip().is_loopback() => AuthMode::Optional,
+            AuthFlag::Auto => AuthMode::Required,
+        }
+    }
+
+    /// The settings these flags give, for a service bound to `bind`.
+    pub fn settings(&self, bind: &SocketAddr) -> AccessSettings {
+        AccessSettings {
+            auth: self.mode(bind),
+            token_cache: secs(self.token_cache_s),
+            rates: crate::auth::RateSettings {
+                ingest_per_s: self.rate_ingest_per_s,
+                ingest_burst: self.rate_ingest_burst,
+                other_per_s: self.rate_write_per_s,
+                other_burst: self.rate_write_burst,
+            },
+            items: crate::limits::ItemLimits {
+                observations: self.max_observations,
+                waypoints: self.max_waypoints,
+                fly_zone_points: self.max_fly_zone_points,
+                other: self.max_list_items,
+            },
+            plan_workers: self
+                .plan_workers
+                .unwrap_or_else(crate::limits::PlanPool::default_workers)
+                .max(1),
+            plan_queue: self.plan_queue,
+            request_timeout: secs(self.request_timeout_s),
+            cors_origins: self.cors_origins.clone(),
+        }
+    }
+
+    /// The server loop's options (reads the TLS files).
+    ///
+    /// # Errors
+    /// A message when the certificate or key cannot be used.
+    pub fn net(&self) -> Result<NetOptions, String> {
+        let tls = match (&self.tls_cert, &self.tls_key) {
+            (Some(cert), Some(key)) => Some(crate::net::tls_config(cert, key)?),
+            _ => None,
+        };
+        Ok(NetOptions {
+            tls,
+            header_read_timeout: secs(self.header_read_timeout_s),
+            shutdown_grace: secs(self.shutdown_grace_s),
+        })
+    }
 }
 
 /// Initialises logging to stderr (stdout carries only the "listening" line).
@@ -97,7 +258,14 @@ pub fn run(args: ServeArgs) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    rt.block_on(async move {
+    let code = rt.block_on(async move {
+        let net = match args.access.net() {
+            Ok(n) => n,
+            Err(e) => {
+                eprintln!("jink: {e}");
+                return ExitCode::FAILURE;
+            }
+        };
         let store = match Store::open(&args.database_url).await {
             Ok(s) => s,
             Err(e) => {
@@ -105,6 +273,24 @@ pub fn run(args: ServeArgs) -> ExitCode {
                 return ExitCode::FAILURE;
             }
         };
+        let access = args.access.settings(&args.bind);
+        if access.auth == AuthMode::Required {
+            match store.count_valid_tokens().await {
+                Ok(0) => {
+                    eprintln!(
+                        "jink: {} requires a token on every request, and no token is defined. Create one with\n    jink token create --name NAME --role admin --database-url {}\nor serve without tokens with --auth off (anyone who can reach the port can then steer the aircraft).",
+                        if args.bind.ip().is_loopback() { "--auth on".to_string() } else { format!("a non-loopback bind ({})", args.bind) },
+                        args.database_url
+                    );
+                    return ExitCode::FAILURE;
+                }
+                Ok(_) => {}
+                Err(e) => {
+                    eprintln!("jink: cannot read the tokens: {e}");
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
         let state = AppState::new(
             store,
             Settings {
@@ -115,6 +301,7 @@ pub fn run(args: ServeArgs) -> ExitCode {
                     map_idle: std::time::Duration::from_secs(args.live_map_idle_s.max(1)),
                     max_maps: args.live_max_maps.max(1),
                 },
+                access,
             },
         );
         if state.store.backend() == crate::store::Backend::Postgres {
@@ -124,12 +311,22 @@ pub fn run(args: ServeArgs) -> ExitCode {
                 args.database_url.clone(),
             ));
         }
-        match crate::app::serve(args.bind, state).await {
+        let listener = match tokio::net::TcpListener::bind(args.bind).await {
+            Ok(l) => l,
+            Err(e) => {
+                eprintln!("jink: cannot serve on {}: {e}", args.bind);
+                return ExitCode::FAILURE;
+            }
+        };
+        match crate::net::serve_with(listener, state, net).await {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
                 eprintln!("jink: cannot serve on {}: {e}", args.bind);
                 ExitCode::FAILURE
             }
         }
-    })
+    });
+    // Plan computations abandoned after the shutdown grace must not hold the exit.
+    rt.shutdown_timeout(std::time::Duration::from_secs(1));
+    code
 }

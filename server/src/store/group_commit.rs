@@ -29,6 +29,7 @@ struct Job {
     mission_id: String,
     rows: Vec<ObservationRow>,
     received_at_s: f64,
+    writer: String,
     reply: Reply,
 }
 
@@ -38,6 +39,7 @@ impl Job {
             mission_id: &self.mission_id,
             rows: &self.rows,
             received_at_s: self.received_at_s,
+            writer: &self.writer,
         }
     }
 }
@@ -63,12 +65,14 @@ impl GroupCommit {
         mission_id: &str,
         rows: &[ObservationRow],
         received_at_s: f64,
+        writer: &str,
     ) -> Option<Result<Option<StoredBatch>, sqlx::Error>> {
         let (reply, answer) = oneshot::channel();
         let job = Job {
             mission_id: mission_id.to_string(),
             rows: rows.to_vec(),
             received_at_s,
+            writer: writer.to_string(),
             reply,
         };
         self.tx.send(job).await.ok()?;
@@ -149,6 +153,7 @@ mod tests {
             mission_id,
             rows,
             received_at_s: 10.0,
+            writer: "local",
         };
         let out = store
             .commit_batches(&[

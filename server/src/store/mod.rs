@@ -20,6 +20,8 @@ use wire::ids::MissionId;
 pub mod group_commit;
 pub mod observations;
 pub mod plans;
+pub mod tokens;
+pub mod writers;
 
 /// A runtime-checked query on the `Any` driver.
 type AnyQuery<'q> = sqlx::query::Query<'q, sqlx::Any, sqlx::any::AnyArguments>;
@@ -182,6 +184,21 @@ impl Store {
         &self.read
     }
 
+    /// Flushes and closes the store at shutdown: waits for the transactions in flight
+    /// (the SQLite group commit's included) to finish, checkpoints the SQLite WAL into the
+    /// database file, and closes both pools.
+    pub async fn close(&self) {
+        if self.backend == Backend::Sqlite
+            && let Err(e) = sqlx::query("PRAGMA wal_checkpoint(TRUNCATE)")
+                .execute(&self.write)
+                .await
+        {
+            tracing::warn!(error = %e, "final WAL checkpoint failed (the WAL keeps the data)");
+        }
+        self.write.close().await;
+        self.read.close().await;
+    }
+
     /// Checks the database answers.
     #[tracing::instrument(skip(self))]
     pub async fn ping(&self) -> Result<(), sqlx::Error> {
@@ -203,11 +220,12 @@ impl Store {
         let mut tx = self.write.begin().await?;
         for m in missions {
             let body = serde_json::to_string(m).map_err(|e| sqlx::Error::Encode(Box::new(e)))?;
-            sqlx::query("INSERT INTO missions (id, created_at_us, source_format, body) VALUES ($1, $2, $3, $4)")
+            sqlx::query("INSERT INTO missions (id, created_at_us, source_format, body, written_by) VALUES ($1, $2, $3, $4, $5)")
                 .bind(m.id.0.clone())
                 .bind(to_us(created_at_s))
                 .bind(m.source_format.as_str())
                 .bind(body)
+                .bind(crate::auth::writer())
                 .execute(&mut *tx)
                 .await?;
         }
@@ -364,9 +382,10 @@ impl Store {
             return self.empty_batch(mission_id).await;
         }
         let received_us = to_us(received_at_s);
+        let writer = crate::auth::writer();
         self.insert_batch(
-            "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us) VALUES ",
-            8,
+            "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us, written_by) VALUES ",
+            9,
             rows,
             |q, r| {
                 q.bind(mission_id.to_string())
@@ -377,6 +396,7 @@ impl Store {
                     .bind(r.heading_deg)
                     .bind(r.speed_mps)
                     .bind(received_us)
+                    .bind(writer.clone())
             },
         )
         .await

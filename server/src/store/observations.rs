@@ -57,6 +57,8 @@ pub struct NewBatch<'a> {
     pub rows: &'a [ObservationRow],
     /// When it was received, Unix seconds.
     pub received_at_s: f64,
+    /// The name of the token that sent it (`local` without one).
+    pub writer: &'a str,
 }
 
 impl Store {
@@ -74,8 +76,9 @@ impl Store {
         rows: &[ObservationRow],
         received_at_s: f64,
     ) -> Result<Option<StoredBatch>, sqlx::Error> {
+        let writer = crate::auth::writer();
         if let Some(g) = &self.group
-            && let Some(r) = g.submit(mission_id, rows, received_at_s).await
+            && let Some(r) = g.submit(mission_id, rows, received_at_s, &writer).await
         {
             return r;
         }
@@ -83,6 +86,7 @@ impl Store {
             mission_id,
             rows,
             received_at_s,
+            writer: &writer,
         };
         Ok(self.commit_batches(&[batch]).await?.pop().flatten())
     }
@@ -122,24 +126,28 @@ impl Store {
             };
             let last: i64 = seq_row.try_get(0)?;
             let first = last - idx.len() as i64 + 1;
-            let rows: Vec<(i64, i64, &ObservationRow)> = idx
+            let rows: Vec<(i64, i64, &str, &ObservationRow)> = idx
                 .iter()
                 .zip(first..)
                 .flat_map(|(&i, seq)| {
                     let received_us = to_us(batches[i].received_at_s);
-                    batches[i].rows.iter().map(move |r| (seq, received_us, r))
+                    let writer = batches[i].writer;
+                    batches[i]
+                        .rows
+                        .iter()
+                        .map(move |r| (seq, received_us, writer, r))
                 })
                 .collect();
             let mut stored: Vec<Vec<ObservationRow>> = vec![Vec::new(); idx.len()];
             for chunk in rows.chunks(INSERT_CHUNK_ROWS) {
                 let sql = values_sql(
-                    "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq) VALUES ",
-                    9,
+                    "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq, written_by) VALUES ",
+                    10,
                     chunk.len(),
                     " ON CONFLICT DO NOTHING RETURNING obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, seq",
                 );
                 let mut q = sqlx::query(AssertSqlSafe(sql));
-                for &(seq, received_us, r) in chunk {
+                for &(seq, received_us, writer, r) in chunk {
                     q = q
                         .bind(mission_id.to_string())
                         .bind(r.obstacle_id.clone())
@@ -149,7 +157,8 @@ impl Store {
                         .bind(r.alt_msl_m)
                         .bind(r.radius_m)
                         .bind(received_us)
-                        .bind(seq);
+                        .bind(seq)
+                        .bind(writer.to_string());
                 }
                 for r in q.fetch_all(&mut *tx).await? {
                     let seq: i64 = r.try_get(6)?;

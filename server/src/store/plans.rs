@@ -55,7 +55,7 @@ impl Store {
     #[tracing::instrument(skip(self, row), fields(mission = %row.mission_id, revision = row.revision))]
     pub async fn insert_plan(&self, row: &PlanRow) -> Result<(), InsertPlanError> {
         let r = sqlx::query(
-            "INSERT INTO plans (id, mission_id, revision, created_at_us, seed, inputs, body) VALUES ($1, $2, $3, $4, $5, $6, $7)",
+            "INSERT INTO plans (id, mission_id, revision, created_at_us, seed, inputs, body, written_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
         )
         .bind(row.id.0.clone())
         .bind(row.mission_id.0.clone())
@@ -64,6 +64,7 @@ impl Store {
         .bind(row.seed.to_string())
         .bind(row.inputs.clone())
         .bind(row.body.clone())
+        .bind(crate::auth::writer())
         .execute(&self.write)
         .await;
         match r {

@@ -1,0 +1,383 @@
+//! Overload benchmark (issue 12): many ground stations on loopback at once against a real
+//! `jink serve`, with and without tokens.
+//!
+//! Run: `cargo bench -p server --bench overload` (release build). Each of
+//! `JINK_OVERLOAD_CLIENTS` (default 200) clients posts aircraft telemetry at 5 Hz and a
+//! native obstacle snapshot (3 observations) at 1 Hz to one of `JINK_OVERLOAD_MISSIONS`
+//! (default 10) missions, and requests plans (`deadline_ms` 200) one after another as fast
+//! as they are answered, waiting `Retry-After` after a 503 or 429 as a client should. A
+//! probe GETs `/healthz` every second. The run lasts `JINK_OVERLOAD_SECONDS` (default 60,
+//! or `--duration SECONDS`) and is done twice: without tokens (loopback, `local`), then
+//! with one write token per client (`--auth on`), unless `JINK_OVERLOAD_AUTH` is `off` or
+//! `on` (one run).
+//!
+//! Reported per run: statuses by kind (any 5xx other than 503 with `Retry-After` fails the
+//! run), ingest latency p50/p99/max overall and the worst per-second p99, plans computed
+//! and refused, `/healthz` latency (worst, and seconds over 100 ms), the server's resident
+//! memory (peak and at the end), ingest throughput, and the observations acknowledged
+//! against those counted in the database afterwards (must be equal).
+
+#[allow(dead_code)]
+mod support;
+
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use serde_json::{Value, json};
+use support::env_or;
+
+fn rss_mb(pid: u32) -> f64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+fn jink_token(db_url: &str, name: &str, role: &str) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_jink"))
+        .args([
+            "token",
+            "create",
+            "--name",
+            name,
+            "--role",
+            role,
+            "--database-url",
+            db_url,
+        ])
+        .output()
+        .expect("jink token create");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap().trim().to_string()
+}
+
+fn spawn(db_url: &str, extra: &[&str]) -> (Child, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
+        .args(["serve", "--bind", "127.0.0.1:0", "--database-url", db_url])
+        .args(extra)
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("start jink");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let base = line
+        .trim()
+        .strip_prefix("jink listening on ")
+        .expect("listening line")
+        .to_string();
+    (child, base)
+}
+
+#[derive(Default)]
+struct Tally {
+    /// (second of the run, latency ms) of each ingest request.
+    ingest: Vec<(u64, f64)>,
+    statuses: BTreeMap<String, u64>,
+    bad: Vec<String>,
+    plans_ok: u64,
+    plans_refused: u64,
+    acknowledged: u64,
+}
+
+fn pct(v: &mut [f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((v.len() as f64 - 1.0) * p).round() as usize]
+}
+
+fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
+    let dir = tempfile::tempdir().unwrap();
+    let db_url = format!("sqlite://{}", dir.path().join("overload.sqlite").display());
+    let mut tokens = Vec::new();
+    let admin = if auth {
+        let admin = jink_token(&db_url, "bench-admin", "admin");
+        for c in 0..clients {
+            tokens.push(Some(jink_token(&db_url, &format!("gcs-{c}"), "write")));
+        }
+        Some(admin)
+    } else {
+        tokens.resize(clients, None);
+        None
+    };
+    let extra: &[&str] = if auth { &["--auth", "on"] } else { &[] };
+    let (mut child, base) = spawn(&db_url, extra);
+    let pid = child.id();
+
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .unwrap();
+    let tally = Arc::new(Mutex::new(Tally::default()));
+    let (health, rss, stored, elapsed) = rt.block_on({
+        let tally = tally.clone();
+        async move {
+            let client = reqwest::Client::builder()
+                .pool_max_idle_per_host(4 * clients)
+                .timeout(Duration::from_secs(120))
+                .build()
+                .unwrap();
+            let mission_text = std::fs::read_to_string(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../tests/fixtures/interop/mission_2021_webster_field.json"
+            ))
+            .unwrap();
+            let mut ids = Vec::new();
+            for _ in 0..missions {
+                let mut r = client
+                    .post(format!("{base}/api/v1/missions"))
+                    .header("content-type", "application/json")
+                    .body(mission_text.clone());
+                if let Some(a) = &admin {
+                    r = r.bearer_auth(a);
+                }
+                let v: Value = r.send().await.unwrap().json().await.unwrap();
+                ids.push(v["id"].as_str().unwrap().to_string());
+            }
+            let start = Instant::now();
+            let deadline = start + Duration::from_secs(seconds);
+            let mut tasks = Vec::new();
+            for (c, token) in tokens.into_iter().enumerate() {
+                let m = &ids[c % missions];
+                let base_m = format!("{base}/api/v1/missions/{m}");
+                // Ingest: telemetry at 5 Hz, an obstacle snapshot every fifth tick.
+                {
+                    let (client, token, tally, base_m) =
+                        (client.clone(), token.clone(), tally.clone(), base_m.clone());
+                    tasks.push(tokio::spawn(async move {
+                        let mut tick = tokio::time::interval(Duration::from_millis(200));
+                        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+                        let mut k = 0u64;
+                        while Instant::now() < deadline {
+                            tick.tick().await;
+                            k += 1;
+                            // Distinct times per client: nothing is a duplicate.
+                            let t = 1_700_000_000.0 + k as f64 * 0.2 + c as f64 * 1e-4;
+                            let mut reqs = vec![(
+                                "telemetry",
+                                json!({"t": t, "lat": 38.1447, "lon": -76.428, "alt_msl_m": 61.0, "heading_deg": 60.0, "speed_mps": 20.0}),
+                            )];
+                            if k.is_multiple_of(5) {
+                                let obs: Vec<Value> = (0..3)
+                                    .map(|o| json!({"obstacle_id": format!("{}", o + 3 * (c % 3)), "t": t,
+                                        "lat": 38.1455 + o as f64 * 1e-4, "lon": -76.4245 + (k as f64) * 1e-5,
+                                        "alt_msl_m": 60.0, "radius_m": 20.0}))
+                                    .collect();
+                                reqs.push(("obstacles", json!({"observations": obs})));
+                            }
+                            for (what, body) in reqs {
+                                let mut r = client.post(format!("{base_m}/{what}")).json(&body);
+                                if let Some(t) = &token {
+                                    r = r.bearer_auth(t);
+                                }
+                                let sent = Instant::now();
+                                let resp = r.send().await;
+                                let ms = sent.elapsed().as_secs_f64() * 1e3;
+                                let sec = sent.duration_since(start).as_secs();
+                                // Read the answer before taking the tally's lock.
+                                let answer = match resp {
+                                    Ok(resp) => {
+                                        let st = resp.status().as_u16();
+                                        let accepted = if st == 202 && what == "obstacles" {
+                                            let v: Value = resp.json().await.unwrap_or_default();
+                                            v["accepted"].as_u64().unwrap_or(0)
+                                        } else {
+                                            0
+                                        };
+                                        Ok((st, accepted))
+                                    }
+                                    Err(e) => Err(e.to_string()),
+                                };
+                                let mut t = tally.lock().unwrap();
+                                match answer {
+                                    Ok((st, accepted)) => {
+                                        *t.statuses.entry(format!("{what} {st}")).or_default() += 1;
+                                        if st == 202 {
+                                            t.ingest.push((sec, ms));
+                                            t.acknowledged += accepted;
+                                        } else {
+                                            t.bad.push(format!("{what} {st}"));
+                                        }
+                                    }
+                                    Err(e) => t.bad.push(format!("{what}: {e}")),
+                                }
+                            }
+                        }
+                    }));
+                }
+                // Plans, one after another.
+                {
+                    let (client, token, tally) = (client.clone(), token.clone(), tally.clone());
+                    tasks.push(tokio::spawn(async move {
+                        while Instant::now() < deadline {
+                            let mut r = client
+                                .post(format!("{base_m}/plan"))
+                                .json(&json!({"deadline_ms": 200}));
+                            if let Some(t) = &token {
+                                r = r.bearer_auth(t);
+                            }
+                            let resp = r.send().await;
+                            let mut wait = Duration::ZERO;
+                            {
+                                let mut t = tally.lock().unwrap();
+                                match resp {
+                                    Ok(resp) => {
+                                        let st = resp.status().as_u16();
+                                        let retry = resp
+                                            .headers()
+                                            .get("retry-after")
+                                            .and_then(|v| v.to_str().ok()?.parse::<u64>().ok());
+                                        *t.statuses.entry(format!("plan {st}")).or_default() += 1;
+                                        match (st, retry) {
+                                            (201, _) => t.plans_ok += 1,
+                                            // A stale revision raced by another client of the mission.
+                                            (409, _) => {}
+                                            (503 | 429, Some(s)) => {
+                                                t.plans_refused += 1;
+                                                wait = Duration::from_secs(s);
+                                            }
+                                            _ => t.bad.push(format!("plan {st} (Retry-After {retry:?})")),
+                                        }
+                                    }
+                                    Err(e) => t.bad.push(format!("plan: {e}")),
+                                }
+                            }
+                            if !wait.is_zero() {
+                                tokio::time::sleep(wait.min(deadline.saturating_duration_since(Instant::now()))).await;
+                            }
+                        }
+                    }));
+                }
+            }
+            // The probe: /healthz and the server's memory every second.
+            let probe = {
+                let client = client.clone();
+                let base = base.clone();
+                tokio::spawn(async move {
+                    let mut health = Vec::new();
+                    let mut rss = Vec::new();
+                    let mut tick = tokio::time::interval(Duration::from_secs(1));
+                    while Instant::now() < deadline {
+                        tick.tick().await;
+                        let sent = Instant::now();
+                        let ok = client
+                            .get(format!("{base}/healthz"))
+                            .send()
+                            .await
+                            .is_ok_and(|r| r.status() == 200);
+                        health.push((ok, sent.elapsed().as_secs_f64() * 1e3));
+                        rss.push(rss_mb(pid));
+                    }
+                    (health, rss)
+                })
+            };
+            for t in tasks {
+                t.await.unwrap();
+            }
+            let elapsed = start.elapsed().as_secs_f64();
+            let (health, rss) = probe.await.unwrap();
+            let mut stored = 0u64;
+            for m in &ids {
+                let mut r = client.get(format!("{base}/api/v1/missions/{m}/observations"));
+                if let Some(a) = &admin {
+                    r = r.bearer_auth(a);
+                }
+                stored += r.send().await.unwrap().json::<Vec<Value>>().await.unwrap().len() as u64;
+            }
+            (health, rss, stored, elapsed)
+        }
+    });
+    let final_rss = rss_mb(pid);
+    let _ = child.kill();
+    let _ = child.wait();
+
+    let mut t = tally.lock().unwrap();
+    let mut all: Vec<f64> = t.ingest.iter().map(|(_, ms)| *ms).collect();
+    let n_ingest = all.len();
+    let mut by_sec: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
+    for (s, ms) in &t.ingest {
+        by_sec.entry(*s).or_default().push(*ms);
+    }
+    let worst_sec_p99 = by_sec
+        .values_mut()
+        .map(|v| pct(v, 0.99))
+        .fold(0.0, f64::max);
+    let health_worst = health.iter().map(|h| h.1).fold(0.0, f64::max);
+    let health_slow = health.iter().filter(|h| !h.0 || h.1 > 100.0).count();
+    let rss_peak = rss.iter().copied().fold(0.0, f64::max);
+    println!(
+        "overload: auth={} clients={clients} missions={missions} seconds={seconds}",
+        if auth {
+            "on (one write token per client)"
+        } else {
+            "off (loopback, local)"
+        }
+    );
+    println!("  statuses: {:?}", t.statuses);
+    println!(
+        "  ingest: {n_ingest} requests acknowledged ({:.0}/s); latency ms p50 {:.1}  p99 {:.1}  max {:.1}; worst per-second p99 {:.1}",
+        n_ingest as f64 / elapsed,
+        pct(&mut all, 0.5),
+        pct(&mut all, 0.99),
+        pct(&mut all, 1.0),
+        worst_sec_p99
+    );
+    println!(
+        "  plans: {} computed, {} refused with Retry-After (503/429)",
+        t.plans_ok, t.plans_refused
+    );
+    println!(
+        "  /healthz: {} probes, worst {:.1} ms, {} over 100 ms or failed",
+        health.len(),
+        health_worst,
+        health_slow
+    );
+    println!("  server memory (VmRSS): peak {rss_peak:.0} MB, at the end {final_rss:.0} MB");
+    println!(
+        "  observations: {} acknowledged, {} stored",
+        t.acknowledged, stored
+    );
+    t.bad.sort();
+    t.bad.dedup();
+    if !t.bad.is_empty() {
+        println!("  unexpected answers: {:?}", &t.bad[..t.bad.len().min(10)]);
+    }
+    assert!(
+        t.bad.is_empty(),
+        "answers other than 2xx, 409, 503/429 with Retry-After"
+    );
+    assert_eq!(t.acknowledged, stored, "acknowledged observations lost");
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let from_flag = args
+        .iter()
+        .position(|a| a == "--duration")
+        .and_then(|i| args.get(i + 1)?.parse().ok());
+    let seconds: u64 = from_flag.unwrap_or_else(|| env_or("JINK_OVERLOAD_SECONDS", 60));
+    let clients: usize = env_or("JINK_OVERLOAD_CLIENTS", 200);
+    let missions: usize = env_or("JINK_OVERLOAD_MISSIONS", 10).max(1);
+    let which = std::env::var("JINK_OVERLOAD_AUTH").unwrap_or_default();
+    if which != "on" {
+        run(false, seconds, clients, missions);
+    }
+    if which != "off" {
+        run(true, seconds, clients, missions);
+    }
+}
