@@ -27,16 +27,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use serde_json::{Value, json};
-use support::env_or;
-
-fn rss_mb(pid: u32) -> f64 {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmRSS:"))
-        .and_then(|v| v.split_whitespace().next()?.parse::<f64>().ok())
-        .map_or(0.0, |kb| kb / 1024.0)
-}
+use support::{env_or, rss_mb, spawn_jink_with as spawn};
 
 fn jink_token(db_url: &str, name: &str, role: &str) -> String {
     let out = Command::new(env!("CARGO_BIN_EXE_jink"))
@@ -60,26 +51,6 @@ fn jink_token(db_url: &str, name: &str, role: &str) -> String {
     String::from_utf8(out.stdout).unwrap().trim().to_string()
 }
 
-fn spawn(db_url: &str, extra: &[&str]) -> (Child, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
-        .args(["serve", "--bind", "127.0.0.1:0", "--database-url", db_url])
-        .args(extra)
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("start jink");
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let base = line
-        .trim()
-        .strip_prefix("jink listening on ")
-        .expect("listening line")
-        .to_string();
-    (child, base)
-}
 
 #[derive(Default)]
 struct Tally {

@@ -16,7 +16,7 @@
 mod support;
 
 use std::time::{Duration, Instant};
-use support::{env_or, spawn_jink};
+use support::{env_or, rss_mb, spawn_jink};
 
 use serde_json::{Value, json};
 
@@ -28,15 +28,6 @@ fn cpu_s(pid: u32) -> f64 {
     let ticks = |i: usize| f.get(i).and_then(|v| v.parse::<f64>().ok()).unwrap_or(0.0);
     // Fields 14 and 15 of stat; after the ")" they are the 12th and 13th.
     (ticks(11) + ticks(12)) / 100.0
-}
-
-fn rss_mb(pid: u32) -> f64 {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmRSS:"))
-        .and_then(|v| v.split_whitespace().next()?.parse::<f64>().ok())
-        .map_or(0.0, |kb| kb / 1024.0)
 }
 
 fn pct(v: &mut [f64], p: f64) -> f64 {

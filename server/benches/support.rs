@@ -3,6 +3,16 @@
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
 
+/// Resident memory of process `pid`, MB (0 when it cannot be read).
+pub fn rss_mb(pid: u32) -> f64 {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
 /// The value of environment variable `k`, else `d`.
 pub fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
     std::env::var(k)
@@ -14,8 +24,14 @@ pub fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
 /// Starts `jink serve` on a free loopback port over `db_url`; returns the process and its
 /// base URL (`http://127.0.0.1:PORT`).
 pub fn spawn_jink(db_url: &str) -> (Child, String) {
+    spawn_jink_with(db_url, &[])
+}
+
+/// [`spawn_jink`] with more `serve` arguments.
+pub fn spawn_jink_with(db_url: &str, extra: &[&str]) -> (Child, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
         .args(["serve", "--bind", "127.0.0.1:0", "--database-url", db_url])
+        .args(extra)
         .env("RUST_LOG", "warn")
         .stdout(Stdio::piped())
         .stderr(Stdio::inherit())

@@ -103,18 +103,12 @@ async fn a_read_token_cannot_post_and_nothing_is_stored() {
     problem(r, 403).await;
     // Nothing was stored by the refused requests.
     let listed: Value = s
-        .get(&format!("/api/v1/missions/{id}/observations"), Some(&read))
-        .await
-        .json()
-        .await
-        .unwrap();
+        .get_json(&format!("/api/v1/missions/{id}/observations"), Some(&read))
+        .await;
     assert_eq!(listed.as_array().unwrap().len(), 0, "{listed}");
     let listed: Value = s
-        .get(&format!("/api/v1/missions/{id}/telemetry"), Some(&read))
-        .await
-        .json()
-        .await
-        .unwrap();
+        .get_json(&format!("/api/v1/missions/{id}/telemetry"), Some(&read))
+        .await;
     assert_eq!(listed.as_array().unwrap().len(), 0, "{listed}");
     // The write token may post; what it stored names it.
     assert_eq!(s.post(&obs, &body, Some(&write)).await.status(), 202);
@@ -129,26 +123,17 @@ async fn a_read_token_cannot_post_and_nothing_is_stored() {
         202
     );
     let listed: Value = s
-        .get(&format!("/api/v1/missions/{id}/observations"), Some(&read))
-        .await
-        .json()
-        .await
-        .unwrap();
+        .get_json(&format!("/api/v1/missions/{id}/observations"), Some(&read))
+        .await;
     assert_eq!(listed.as_array().unwrap().len(), 1, "{listed}");
     assert_eq!(listed[0]["written_by"], "gcs-1", "{listed}");
     let listed: Value = s
-        .get(&format!("/api/v1/missions/{id}/telemetry"), Some(&read))
-        .await
-        .json()
-        .await
-        .unwrap();
+        .get_json(&format!("/api/v1/missions/{id}/telemetry"), Some(&read))
+        .await;
     assert_eq!(listed[0]["written_by"], "gcs-1", "{listed}");
     let mission: Value = s
-        .get(&format!("/api/v1/missions/{id}"), Some(&read))
-        .await
-        .json()
-        .await
-        .unwrap();
+        .get_json(&format!("/api/v1/missions/{id}"), Some(&read))
+        .await;
     assert_eq!(mission["written_by"], "ops", "{mission}");
 }
 
@@ -165,18 +150,10 @@ async fn without_a_token_on_loopback_the_writer_is_local() {
         202
     );
     let listed: Value = s
-        .get(&format!("/api/v1/missions/{id}/observations"), None)
-        .await
-        .json()
-        .await
-        .unwrap();
+        .get_json(&format!("/api/v1/missions/{id}/observations"), None)
+        .await;
     assert_eq!(listed[0]["written_by"], "local", "{listed}");
-    let mission: Value = s
-        .get(&format!("/api/v1/missions/{id}"), None)
-        .await
-        .json()
-        .await
-        .unwrap();
+    let mission: Value = s.get_json(&format!("/api/v1/missions/{id}"), None).await;
     assert_eq!(mission["written_by"], "local", "{mission}");
 }
 

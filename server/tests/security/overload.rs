@@ -99,11 +99,8 @@ async fn a_full_plan_pool_answers_503_with_retry_after_while_ingest_succeeds() {
     assert!(refused >= 1, "the pool never filled ({ok} plans computed)");
     // Everything acknowledged is stored.
     let stored: Value = s
-        .get(&format!("/api/v1/missions/{id}/observations"), None)
-        .await
-        .json()
-        .await
-        .unwrap();
+        .get_json(&format!("/api/v1/missions/{id}/observations"), None)
+        .await;
     assert_eq!(stored.as_array().unwrap().len(), 10 + n as usize);
     ingest_ms.sort_by(f64::total_cmp);
     eprintln!(
@@ -158,11 +155,8 @@ async fn a_token_over_its_write_rate_gets_429_with_retry_after() {
         assert_eq!(s.get(&obs, Some(&a)).await.status(), 200);
     }
     let stored: Value = s
-        .get(&format!("/api/v1/missions/{id}/observations"), Some(&a))
-        .await
-        .json()
-        .await
-        .unwrap();
+        .get_json(&format!("/api/v1/missions/{id}/observations"), Some(&a))
+        .await;
     assert_eq!(stored.as_array().unwrap().len(), acknowledged);
 }
 

@@ -177,6 +177,11 @@ impl Server {
         r.send().await.unwrap()
     }
 
+    /// GET with an optional bearer token, the body as JSON.
+    pub async fn get_json(&self, path: &str, token: Option<&str>) -> Value {
+        self.get(path, token).await.json().await.unwrap()
+    }
+
     /// POST JSON with an optional bearer token.
     pub async fn post(&self, path: &str, body: &Value, token: Option<&str>) -> reqwest::Response {
         let mut r = self.client.post(self.url(path)).json(body);

@@ -73,10 +73,7 @@ async fn sigterm_during_ingest_exits_0_and_loses_nothing_acknowledged() {
     drop(s);
     let again = Server::start(&db, &["--bind", "127.0.0.1:0"]);
     let stored: Value = again
-        .get(&format!("/api/v1/missions/{id}/observations"), None)
-        .await
-        .json()
-        .await
-        .unwrap();
+        .get_json(&format!("/api/v1/missions/{id}/observations"), None)
+        .await;
     assert_eq!(stored.as_array().unwrap().len() as u64, acknowledged);
 }
