@@ -152,18 +152,23 @@ mod tests {
         )
     }
 
+    /// The fly zone `[x0, x1] x [y0, y1]`, metres.
+    fn rectangle(x0: f64, y0: f64, x1: f64, y1: f64) -> Zones {
+        Zones::single(&[[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+    }
+
+    /// Mission waypoints 0 and 1 due north at `y0` and `y1` metres, 100 m up.
+    fn north(y0: f64, y1: f64) -> Vec<StackItem> {
+        vec![
+            StackItem::mission(0, [0.0, y0], 100.0),
+            StackItem::mission(1, [0.0, y1], 100.0),
+        ]
+    }
+
     #[test]
     fn candidates_keep_the_fixed_items_and_stay_in_the_zone() {
-        let zones = Zones::single(&[
-            [-500.0, -500.0],
-            [500.0, -500.0],
-            [500.0, 2000.0],
-            [-500.0, 2000.0],
-        ]);
-        let tail = vec![
-            StackItem::mission(0, [0.0, 1000.0], 100.0),
-            StackItem::mission(1, [0.0, 1500.0], 100.0),
-        ];
+        let zones = rectangle(-500.0, -500.0, 500.0, 2000.0);
+        let tail = north(1000.0, 1500.0);
         let c = candidates(&zones, &tail, 0);
         assert!(c.len() > 20, "{}", c.len());
         for cand in &c {
@@ -176,16 +181,8 @@ mod tests {
     fn a_target_after_a_waypoint_keeps_the_waypoint_and_detours_from_it() {
         // The conflict is on the leg from waypoint 0 to waypoint 1 (the target): waypoint 0
         // must stay, and the detour points lie between it and the target.
-        let zones = Zones::single(&[
-            [-2000.0, -500.0],
-            [2000.0, -500.0],
-            [2000.0, 3000.0],
-            [-2000.0, 3000.0],
-        ]);
-        let tail = vec![
-            StackItem::mission(0, [0.0, 1000.0], 100.0),
-            StackItem::mission(1, [0.0, 2000.0], 100.0),
-        ];
+        let zones = rectangle(-2000.0, -500.0, 2000.0, 3000.0);
+        let tail = north(1000.0, 2000.0);
         let c = candidates(&zones, &tail, 1);
         assert!(!c.is_empty());
         for cand in &c {

@@ -13,16 +13,14 @@ mod support;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
-use support::{env_or, spawn_jink};
+use support::{create_webster, database_url, env_or, expect, spawn_jink};
 
 use serde_json::{Value, json};
 
 fn main() {
     let seconds: u64 = env_or("JINK_LOAD_SECONDS", 10);
     let concurrency: usize = env_or("JINK_LOAD_CONCURRENCY", 32);
-    let dir = tempfile::tempdir().unwrap();
-    let db_url = std::env::var("JINK_LOAD_DATABASE_URL")
-        .unwrap_or_else(|_| format!("sqlite://{}", dir.path().join("load.sqlite").display()));
+    let (_dir, db_url) = database_url("JINK_LOAD_DATABASE_URL", "load.sqlite");
 
     let (mut child, base) = spawn_jink(&db_url);
 
@@ -33,19 +31,7 @@ fn main() {
         .unwrap();
     let (sent, accepted, lat_us, stored) = rt.block_on(async move {
         let client = reqwest::Client::builder().pool_max_idle_per_host(concurrency).build().unwrap();
-        let mission = std::fs::read_to_string(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../tests/fixtures/interop/mission_2021_webster_field.json"
-        ))
-        .unwrap();
-        let r = client
-            .post(format!("{base}/api/v1/missions"))
-            .header("content-type", "application/json")
-            .body(mission)
-            .send()
-            .await
-            .unwrap();
-        let id = r.json::<Value>().await.unwrap()["id"].as_str().unwrap().to_string();
+        let id = create_webster(&client, &base).await;
         let url = Arc::new(format!("{base}/api/v1/missions/{id}/obstacles"));
         let seq = Arc::new(AtomicU64::new(0));
         let accepted = Arc::new(AtomicU64::new(0));
@@ -68,14 +54,11 @@ fn main() {
                         .collect();
                     let body = serde_json::to_vec(&json!({ "observations": obs })).unwrap();
                     let start = Instant::now();
-                    let r = client
-                        .post(url.as_str())
-                        .header("content-type", "application/json")
-                        .body(body)
-                        .send()
-                        .await
-                        .unwrap();
-                    assert_eq!(r.status(), 202);
+                    let r = expect(
+                        client.post(url.as_str()).header("content-type", "application/json").body(body),
+                        202,
+                    )
+                    .await;
                     let v: Value = r.json().await.unwrap();
                     lat.push(start.elapsed().as_micros() as u64);
                     accepted.fetch_add(v["accepted"].as_u64().unwrap(), Ordering::Relaxed);

@@ -16,7 +16,7 @@
 mod support;
 
 use std::time::{Duration, Instant};
-use support::{env_or, rss_mb, spawn_jink};
+use support::{create_webster, database_url, env_or, expect, rss_mb, spawn_jink};
 
 use serde_json::{Value, json};
 
@@ -82,31 +82,27 @@ async fn fly(
     for i in 0..ticks {
         let t = t0 + f64::from(i) * 0.2;
         let s = Instant::now();
-        let r = client
-            .post(format!("{base}/api/v1/missions/{id}/obstacles"))
-            .json(&snapshot(t))
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(r.status(), 202);
+        expect(
+            client
+                .post(format!("{base}/api/v1/missions/{id}/obstacles"))
+                .json(&snapshot(t)),
+            202,
+        )
+        .await;
         ph.ingest_ms.push(s.elapsed().as_secs_f64() * 1e3);
-        let r = client
-            .post(format!("{base}/api/v1/missions/{id}/telemetry"))
-            .json(&json!({"t": t, "lat": 38.1446916666667 + 0.00001 * f64::from(i % 50), "lon": -76.4279944444445,
-                          "alt_msl_m": 60.96, "heading_deg": 60.0, "speed_mps": 20.0}))
-            .send()
-            .await
-            .unwrap();
-        assert_eq!(r.status(), 202);
+        let sample = json!({"t": t, "lat": 38.1446916666667 + 0.00001 * f64::from(i % 50), "lon": -76.4279944444445,
+                            "alt_msl_m": 60.96, "heading_deg": 60.0, "speed_mps": 20.0});
+        expect(
+            client
+                .post(format!("{base}/api/v1/missions/{id}/telemetry"))
+                .json(&sample),
+            202,
+        )
+        .await;
         if i % (5 / plan_hz) == 0 {
             let s = Instant::now();
-            let r = client
-                .post(format!("{base}/api/v1/missions/{id}/plan"))
-                .json(&json!({"seed": 7, "current_index": 1}))
-                .send()
-                .await
-                .unwrap();
-            assert_eq!(r.status(), 201);
+            let plan = client.post(format!("{base}/api/v1/missions/{id}/plan"));
+            let r = expect(plan.json(&json!({"seed": 7, "current_index": 1})), 201).await;
             let v: Value = r.json().await.unwrap();
             ph.plan_rt_ms.push(s.elapsed().as_secs_f64() * 1e3);
             ph.plan_compute_ms.push(v["compute_ms"].as_f64().unwrap());
@@ -122,9 +118,7 @@ async fn fly(
 fn main() {
     let seconds: u32 = env_or("JINK_PLAN_SECONDS", 20);
     let missions: u32 = env_or("JINK_PLAN_MISSIONS", 100);
-    let dir = tempfile::tempdir().unwrap();
-    let db_url = std::env::var("JINK_PLAN_DATABASE_URL")
-        .unwrap_or_else(|_| format!("sqlite://{}", dir.path().join("plan.sqlite").display()));
+    let (_dir, db_url) = database_url("JINK_PLAN_DATABASE_URL", "plan.sqlite");
     let (mut child, base) = spawn_jink(&db_url);
     let pid = child.id();
     let rt = tokio::runtime::Builder::new_current_thread()
@@ -133,25 +127,7 @@ fn main() {
         .unwrap();
     rt.block_on(async move {
         let client = reqwest::Client::new();
-        let mission = std::fs::read_to_string(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../tests/fixtures/interop/mission_2021_webster_field.json"
-        ))
-        .unwrap();
-        let create = |m: String| {
-            let (client, base) = (client.clone(), base.clone());
-            async move {
-                let r = client
-                    .post(format!("{base}/api/v1/missions"))
-                    .header("content-type", "application/json")
-                    .body(m)
-                    .send()
-                    .await
-                    .unwrap();
-                r.json::<Value>().await.unwrap()["id"].as_str().unwrap().to_string()
-            }
-        };
-        let id = create(mission.clone()).await;
+        let id = create_webster(&client, &base).await;
         let t0 = 1_700_000_000.0;
         println!("plan_load: backend={} flight={seconds} s per phase", db_url.split(':').next().unwrap_or("?"));
         for (k, hz) in [1u32, 5].into_iter().enumerate() {
@@ -171,22 +147,12 @@ fn main() {
         }
         let rss0 = rss_mb(pid);
         for _ in 0..missions {
-            let id = create(mission.clone()).await;
+            let id = create_webster(&client, &base).await;
             for i in 0..150 {
-                let r = client
-                    .post(format!("{base}/api/v1/missions/{id}/obstacles"))
-                    .json(&snapshot(t0 + f64::from(i) * 0.2))
-                    .send()
-                    .await
-                    .unwrap();
-                assert_eq!(r.status(), 202);
+                let url = format!("{base}/api/v1/missions/{id}/obstacles");
+                expect(client.post(url).json(&snapshot(t0 + f64::from(i) * 0.2)), 202).await;
             }
-            let r = client
-                .get(format!("{base}/api/v1/missions/{id}/obstacles"))
-                .send()
-                .await
-                .unwrap();
-            assert_eq!(r.status(), 200);
+            expect(client.get(format!("{base}/api/v1/missions/{id}/obstacles")), 200).await;
         }
         println!(
             "  {} live missions x 10 obstacles (150 snapshots each): server VmRSS {:.0} MB (before them {rss0:.0} MB)",
@@ -196,13 +162,8 @@ fn main() {
         let r = client.get(format!("{base}/api/v1/missions")).send().await.unwrap();
         let all: Vec<Value> = r.json().await.unwrap();
         for m in &all {
-            let r = client
-                .post(format!("{base}/api/v1/missions/{}/plan", m["id"].as_str().unwrap()))
-                .json(&json!({"seed": 7, "current_index": 1}))
-                .send()
-                .await
-                .unwrap();
-            assert_eq!(r.status(), 201);
+            let url = format!("{base}/api/v1/missions/{}/plan", m["id"].as_str().unwrap());
+            expect(client.post(url).json(&json!({"seed": 7, "current_index": 1})), 201).await;
         }
         println!(
             "  the same after one plan each (risk maps built; at most --live-max-maps kept): server VmRSS {:.0} MB",

@@ -1,4 +1,5 @@
-//! Shared by the load benchmarks: environment knobs and starting the real `jink serve`.
+//! Shared by the load benchmarks: environment knobs, the store, starting the real `jink
+//! serve` and the requests every benchmark makes.
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};
@@ -47,4 +48,44 @@ pub fn spawn_jink_with(db_url: &str, extra: &[&str]) -> (Child, String) {
         .expect("listening line")
         .to_string();
     (child, base)
+}
+
+/// The store URL: environment variable `k`, else a fresh SQLite file `file` in a temporary
+/// directory (returned with it: the directory lives as long as it does).
+pub fn database_url(k: &str, file: &str) -> (tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let url = std::env::var(k)
+        .unwrap_or_else(|_| format!("sqlite://{}", dir.path().join(file).display()));
+    (dir, url)
+}
+
+/// Uploads the Webster Field interop fixture; returns the new mission's id.
+pub async fn create_webster(client: &reqwest::Client, base: &str) -> String {
+    let mission = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/fixtures/interop/mission_2021_webster_field.json"
+    ))
+    .unwrap();
+    let r = expect(
+        client
+            .post(format!("{base}/api/v1/missions"))
+            .header("content-type", "application/json")
+            .body(mission),
+        201,
+    )
+    .await;
+    r.json::<serde_json::Value>().await.unwrap()["id"]
+        .as_str()
+        .unwrap()
+        .to_string()
+}
+
+/// Sends `req` and checks the answer's status.
+///
+/// # Panics
+/// When the request fails or the status is another.
+pub async fn expect(req: reqwest::RequestBuilder, status: u16) -> reqwest::Response {
+    let r = req.send().await.unwrap();
+    assert_eq!(r.status(), status);
+    r
 }

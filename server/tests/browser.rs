@@ -60,15 +60,16 @@ fn circle_track(mission: &Value, n: usize) -> Value {
         .duration_since(std::time::UNIX_EPOCH)
         .unwrap()
         .as_secs_f64();
-    let m_per_deg = 111_320.0;
+    let frame = wire::geodesy::LocalFrame::new(lat0, lon0);
     Value::Array(
         (0..n)
             .map(|i| {
                 let a = i as f64 / n as f64 * std::f64::consts::TAU;
+                let (lat, lon) = frame.to_geodetic([300.0 * a.cos(), 300.0 * a.sin()]);
                 serde_json::json!({
                     "t": now - 20.0 - 0.2 * (n - i) as f64,
-                    "lat": lat0 + 300.0 * a.sin() / m_per_deg,
-                    "lon": lon0 + 300.0 * a.cos() / (m_per_deg * lat0.to_radians().cos()),
+                    "lat": lat,
+                    "lon": lon,
                     "alt_msl_m": 100.0,
                     "heading_deg": (360.0 - a.to_degrees()).rem_euclid(360.0),
                     "speed_mps": 20.0,

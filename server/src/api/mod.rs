@@ -16,6 +16,7 @@ pub mod obstacles;
 pub mod operator;
 pub mod plan_compute;
 pub mod plan_files;
+pub mod plan_inputs;
 pub mod plan_record;
 pub mod plan_types;
 pub mod plans;

@@ -1,6 +1,9 @@
 //! The planning pipeline behind `POST .../plan`, its replay and `jink plan`: the start, the
 //! snapshot a plan reads, one call of the library's replanning seam ([`planner::replan`]),
-//! and the wire stack and answer built from its result. No HTTP here beyond the error type.
+//! and the stack and answer built from its result. No HTTP here beyond the error type, and
+//! no wire or storage shapes: [`PlanInputs`] is the domain form of what a plan depends on,
+//! parsed at the edge (the handler, `jink plan`) and stored in its own record
+//! ([`super::plan_inputs`]).
 //!
 //! The start is the latest aircraft telemetry (else the stack item before the current
 //! index, at the current time, [`stack_start`]). Dynamic risk comes from the mission's live
@@ -21,27 +24,82 @@ use std::time::Instant;
 use planner::{ItemKind, StackItem, Strategy};
 use predictor::Predictor;
 
+use super::plan_inputs::ObservationWindow;
 use super::plan_types::*;
-use super::plans::StrategyIn;
 use crate::app::AppState;
 use crate::error::ApiError;
 use crate::live::Snapshot;
 use crate::live::plan_view::{PlanObstacle, PlanWarning, plan_view};
-use crate::mission::Mission;
+use crate::mission::{Mission, Waypoint};
+use crate::store::{ObservationRow, TelemetryRow};
 use crate::time::format_rfc3339;
 use wire::ids::{MissionId, PlanId};
 
-/// The mission's own waypoints as a wire stack.
-pub fn mission_stack_out(m: &Mission) -> Vec<PlanWaypoint> {
+/// One item of a waypoint stack, in geodetic coordinates (a plan's base stack and the
+/// stack it answers).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GeoItem {
+    /// Where it is (degrees, metres MSL).
+    pub at: Waypoint,
+    /// What it is for.
+    pub kind: ItemKind,
+    /// Index into the mission's waypoints, for mission items.
+    pub mission_index: Option<usize>,
+}
+
+/// Where a plan starts: a telemetry sample, or one made up from the stack
+/// ([`stack_start`]; its speed unknown).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Start {
+    /// Whether `at` is the aircraft's own telemetry.
+    pub from_telemetry: bool,
+    /// Time, position, heading and (when known) speed.
+    pub at: TelemetryRow,
+}
+
+/// The observations a plan's snapshot is built from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Observations {
+    /// Every stored batch up to this sequence number (the live snapshot's cut-off).
+    Through(i64),
+    /// Plans stored before live state: the stored observations of a time window.
+    Window(ObservationWindow),
+    /// Given explicitly (offline `jink plan`; the first stored plans held them inline).
+    Given(Vec<ObservationRow>),
+}
+
+/// Everything a plan depends on besides the mission (stored with it for replay).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanInputs {
+    /// Seed of the plan's random choices.
+    pub seed: u64,
+    /// Planner to run.
+    pub strategy: Strategy,
+    /// Compute budget, milliseconds (none: search to the end).
+    pub deadline_ms: Option<u64>,
+    /// Prediction horizon, seconds.
+    pub horizon_s: f64,
+    /// Cruise speed and turn radius.
+    pub aircraft: planner::Aircraft,
+    /// Index in `stack` the aircraft flies toward.
+    pub current_index: usize,
+    /// The base stack (empty = the mission's waypoints).
+    pub stack: Vec<GeoItem>,
+    /// The start.
+    pub start: Start,
+    /// The observations.
+    pub observations: Observations,
+}
+
+/// The mission's own waypoints as a stack.
+pub fn mission_stack(m: &Mission) -> Vec<GeoItem> {
     m.content
         .waypoints
         .iter()
         .enumerate()
-        .map(|(i, w)| PlanWaypoint {
-            lat: w.lat,
-            lon: w.lon,
-            alt_msl_m: w.alt_msl_m,
-            kind: KindOut::Mission,
+        .map(|(i, w)| GeoItem {
+            at: *w,
+            kind: ItemKind::Mission,
             mission_index: Some(i),
         })
         .collect()
@@ -50,10 +108,9 @@ pub fn mission_stack_out(m: &Mission) -> Vec<PlanWaypoint> {
 /// The result of [`compute`].
 #[derive(Debug, Clone)]
 pub struct Computed {
-    /// The whole stack.
-    pub waypoints: Vec<PlanWaypoint>,
-    /// The diff.
-    pub diff: DiffOut,
+    /// The whole stack (items taken over from the base stack keep its coordinates exactly;
+    /// `plan.diff` says which tail changed).
+    pub stack: Vec<GeoItem>,
     /// The library's plan (ENU).
     pub plan: planner::Plan,
     /// Dynamic risk used.
@@ -70,8 +127,8 @@ pub struct Computed {
 
 /// A snapshot built from explicit observations (offline plans, plans stored before live
 /// state), fed in time then obstacle order.
-pub fn snapshot_from_observations(mission: &Mission, observations: &[ObservationUsed]) -> Snapshot {
-    let mut rows: Vec<crate::store::ObservationRow> = observations.iter().map(Into::into).collect();
+pub fn snapshot_from_observations(mission: &Mission, observations: &[ObservationRow]) -> Snapshot {
+    let mut rows = observations.to_vec();
     crate::store::observations::sort_feeding_order(&mut rows);
     let mut p = Predictor::new(crate::live::snapshot::predictor_config());
     crate::live::snapshot::feed(&mut p, &mission.frame(), &rows);
@@ -88,26 +145,26 @@ pub async fn stored_snapshot(
     mission: &Mission,
     inputs: &PlanInputs,
 ) -> Result<Snapshot, ApiError> {
-    if let Some(seq) = inputs.observation_seq {
-        let rows: Vec<crate::store::ObservationRow> = state
-            .store
-            .list_observations_through(&mission.id, -1, seq)
-            .await?
-            .into_iter()
-            .map(|(_, r)| r)
-            .collect();
-        let m = mission.clone();
-        return state
-            .run_cpu(move || {
-                let mut p = Predictor::new(crate::live::snapshot::predictor_config());
-                crate::live::snapshot::feed(&mut p, &m.frame(), &rows);
-                Snapshot::build(&m, seq, std::sync::Arc::new(p))
-            })
-            .await;
-    }
-    let obs = match inputs.observation_window {
-        Some(w) => w.fetch(&state.store, &mission.id).await?,
-        None => inputs.observations.clone(),
+    let obs = match &inputs.observations {
+        &Observations::Through(seq) => {
+            let rows: Vec<ObservationRow> = state
+                .store
+                .list_observations_through(&mission.id, -1, seq)
+                .await?
+                .into_iter()
+                .map(|(_, r)| r)
+                .collect();
+            let m = mission.clone();
+            return state
+                .run_cpu(move || {
+                    let mut p = Predictor::new(crate::live::snapshot::predictor_config());
+                    crate::live::snapshot::feed(&mut p, &m.frame(), &rows);
+                    Snapshot::build(&m, seq, std::sync::Arc::new(p))
+                })
+                .await;
+        }
+        Observations::Window(w) => w.fetch(&state.store, &mission.id).await?,
+        Observations::Given(obs) => obs.clone(),
     };
     let m = mission.clone();
     state
@@ -135,11 +192,13 @@ pub fn compute(
         .stack
         .iter()
         .map(|w| match (w.kind, w.mission_index) {
-            (KindOut::Mission, Some(i)) if i < pm.waypoints.len() => {
+            (ItemKind::Mission, Some(i)) if i < pm.waypoints.len() => {
                 StackItem::mission(i, pm.waypoints[i].p_m, pm.waypoints[i].alt_m)
             }
-            (KindOut::Search, _) => StackItem::search(frame.to_enu(w.lat, w.lon), w.alt_msl_m),
-            _ => StackItem::avoid(frame.to_enu(w.lat, w.lon), w.alt_msl_m),
+            (ItemKind::Search, _) => {
+                StackItem::search(frame.to_enu(w.at.lat, w.at.lon), w.at.alt_msl_m)
+            }
+            _ => StackItem::avoid(frame.to_enu(w.at.lat, w.at.lon), w.at.alt_msl_m),
         })
         .collect();
     let base: Vec<StackItem> = if stack.is_empty() {
@@ -147,23 +206,23 @@ pub fn compute(
     } else {
         stack
     };
-    let s = &inputs.start;
+    let s = &inputs.start.at;
     let state = planner::AircraftState {
-        p_m: frame.to_enu(s.lat, s.lon),
+        p_m: frame.to_enu(s.lat_deg, s.lon_deg),
         alt_m: s.alt_msl_m,
         heading_rad: s.heading_deg.to_radians(),
-        speed_mps: s.speed_mps,
-        t_s: s.t,
+        speed_mps: s.speed_mps.unwrap_or(0.0),
+        t_s: s.t_s,
     };
 
     // Dynamic risk from the live snapshot.
     let view = plan_view(
         mission,
         snap,
-        s.t,
-        s.source == StartSource::Telemetry,
+        s.t_s,
+        inputs.start.from_telemetry,
         inputs.horizon_s,
-        inputs.strategy != StrategyIn::Insertion,
+        inputs.strategy != Strategy::Insertion,
     )
     .map_err(|e| ApiError::Internal(format!("risk map: {e}")))?;
     let map = view.map.clone();
@@ -183,18 +242,11 @@ pub fn compute(
     let cfg = crate::live::snapshot::service_config(inputs.horizon_s);
     let r = planner::Replan {
         mission: &pm,
-        aircraft: planner::Aircraft {
-            speed_mps: inputs.speed_mps,
-            turn_radius_m: inputs.turn_radius_m,
-        },
+        aircraft: inputs.aircraft,
         state,
         stack: &base,
         current_index: inputs.current_index,
-        strategy: match inputs.strategy {
-            StrategyIn::Bisection => Strategy::Bisection,
-            StrategyIn::Insertion => Strategy::Insertion,
-            StrategyIn::None => Strategy::None,
-        },
+        strategy: inputs.strategy,
         seed: inputs.seed,
     };
     let mut until = planner::Termination::deadline(deadline);
@@ -212,41 +264,37 @@ pub fn compute(
             ),
             _ => frame.to_geodetic(it.p_m),
         };
-        PlanWaypoint {
-            lat,
-            lon,
-            alt_msl_m: it.alt_m,
-            kind: kind_out(it.kind),
+        GeoItem {
+            at: Waypoint {
+                lat,
+                lon,
+                alt_msl_m: it.alt_m,
+            },
+            kind: it.kind,
             mission_index: it.mission_index,
         }
     };
-    // Items taken over from the base stack keep their wire coordinates exactly.
-    let base_out: Vec<PlanWaypoint> = if inputs.stack.is_empty() {
-        mission_stack_out(mission)
+    // Items taken over from the base stack keep their coordinates exactly.
+    let base_geo: Vec<GeoItem> = if inputs.stack.is_empty() {
+        mission_stack(mission)
     } else {
         inputs.stack.clone()
     };
     let first = plan.diff.first_changed.unwrap_or(plan.items.len());
-    let waypoints: Vec<PlanWaypoint> = plan
+    let stack: Vec<GeoItem> = plan
         .items
         .iter()
         .enumerate()
         .map(|(i, it)| {
-            if i < first && i < base_out.len() {
-                base_out[i]
+            if i < first && i < base_geo.len() {
+                base_geo[i]
             } else {
                 geo(it)
             }
         })
         .collect();
-    let diff = DiffOut {
-        first_changed: plan.diff.first_changed,
-        remove: plan.diff.remove,
-        insert: waypoints[first.min(waypoints.len())..].to_vec(),
-    };
     Ok(Computed {
-        waypoints,
-        diff,
+        stack,
         dynamic_risk: DynamicRisk {
             source: if map.is_some() {
                 DynamicSource::RiskMap
@@ -292,6 +340,7 @@ pub fn plan_out(
     c: &Computed,
     now: f64,
 ) -> PlanOut {
+    let waypoints: Vec<PlanWaypoint> = c.stack.iter().map(PlanWaypoint::from).collect();
     PlanOut {
         plan_id: plan_id.to_string(),
         mission_id: mission_id.to_string(),
@@ -300,8 +349,8 @@ pub fn plan_out(
         outcome: outcome_name(c.plan.outcome).to_string(),
         seed: inputs.seed,
         current_index: c.plan.current_index,
-        waypoints: c.waypoints.clone(),
-        diff: c.diff.clone(),
+        diff: DiffOut::of(c.plan.diff.first_changed, c.plan.diff.remove, &waypoints),
+        waypoints,
         risk: c.plan.risk,
         base_risk: c.plan.base_risk,
         exposure_m: c.plan.exposure_m,
@@ -313,7 +362,7 @@ pub fn plan_out(
         obstacles: c.obstacles.clone(),
         warnings: c.warnings.clone(),
         observation_seq: c.observation_seq,
-        start: inputs.start,
+        start: StartOut::from(&inputs.start),
         created_at: format_rfc3339(now),
     }
 }
@@ -324,50 +373,49 @@ pub fn new_seed() -> u64 {
 }
 
 /// No telemetry: start at the stack item before the current index (or the first), heading
-/// toward the current one, now.
-pub fn stack_start(
-    mission: &Mission,
-    stack: &[PlanWaypoint],
-    current_index: usize,
-    now: f64,
-) -> StartOut {
+/// toward the current one, now, speed unknown.
+pub fn stack_start(mission: &Mission, stack: &[GeoItem], current_index: usize, now: f64) -> Start {
     let own;
-    let st: &[PlanWaypoint] = if stack.is_empty() {
-        own = mission_stack_out(mission);
+    let st: &[GeoItem] = if stack.is_empty() {
+        own = mission_stack(mission);
         &own
     } else {
         stack
     };
     let from = st.get(current_index.saturating_sub(1)).or(st.first());
-    let to = st.get(current_index);
-    let (lat, lon, alt) = from.map_or(
-        (
-            mission.home.lat,
-            mission.home.lon,
-            mission.home.alt_msl_m.unwrap_or(0.0),
-        ),
-        |w| (w.lat, w.lon, w.alt_msl_m),
+    let at = from.map_or(
+        Waypoint {
+            lat: mission.home.lat,
+            lon: mission.home.lon,
+            alt_msl_m: mission.home.alt_msl_m.unwrap_or(0.0),
+        },
+        |w| w.at,
     );
-    let heading_deg = match to {
-        Some(t) => {
-            let f = mission.frame();
-            let (a, b) = (f.to_enu(lat, lon), f.to_enu(t.lat, t.lon));
-            (b[0] - a[0])
-                .atan2(b[1] - a[1])
-                .to_degrees()
-                .rem_euclid(360.0)
-        }
-        None => 0.0,
-    };
-    StartOut {
-        source: StartSource::Stack,
-        t: now,
-        lat,
-        lon,
-        alt_msl_m: alt,
-        heading_deg,
-        speed_mps: 0.0,
+    let heading_deg = st.get(current_index).map_or(0.0, |to| {
+        bearing_deg(mission, (at.lat, at.lon), (to.at.lat, to.at.lon))
+    });
+    Start {
+        from_telemetry: false,
+        at: TelemetryRow {
+            t_s: now,
+            lat_deg: at.lat,
+            lon_deg: at.lon,
+            alt_msl_m: at.alt_msl_m,
+            heading_deg,
+            speed_mps: None,
+        },
     }
+}
+
+/// The heading from `from` toward `to` (both `(lat, lon)`, degrees) in the mission's frame,
+/// degrees true in [0, 360).
+pub fn bearing_deg(mission: &Mission, from: (f64, f64), to: (f64, f64)) -> f64 {
+    let f = mission.frame();
+    let (a, b) = (f.to_enu(from.0, from.1), f.to_enu(to.0, to.1));
+    (b[0] - a[0])
+        .atan2(b[1] - a[1])
+        .to_degrees()
+        .rem_euclid(360.0)
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! The stored form of a plan's answer (the `plans.body` column), separate from the API's
 //! [`PlanOut`]: the API may rename or add fields without touching stored rows, and the
-//! store never parses an API response back.
+//! store never parses an API response back. Its stack items and start ([`StoredItem`],
+//! [`StoredStart`]) are also those of the stored inputs ([`super::plan_inputs`]); both
+//! convert to and from the pipeline's domain types, never to the API's directly.
 //!
 //! # Contract
 //! - A record is a JSON object with `"record": 1` (the shape's version); what the row's
@@ -10,13 +12,15 @@
 //! - The diff's `insert` is not stored: it is the stack from `first_changed` on.
 //! - Units: degrees, metres MSL, metres, seconds (Unix), milliseconds for `compute_ms`.
 
+use planner::ItemKind;
 use serde::{Deserialize, Serialize};
 
-use super::plans::{
-    DiffOut, DynamicRisk, DynamicSource, KindOut, PlanOut, PlanWaypoint, StartOut, StartSource,
-};
+use super::plan_compute::{GeoItem, Start};
+use super::plans::{DiffOut, DynamicRisk, DynamicSource, PlanOut, PlanWaypoint, StartOut};
 use crate::error::ApiError;
 use crate::live::plan_view::{PlanObstacle, PlanWarning};
+use crate::mission::Waypoint;
+use crate::store::TelemetryRow;
 use crate::store::plans::PlanRow;
 use crate::time::format_rfc3339;
 
@@ -109,13 +113,16 @@ pub struct StoredStart {
 impl PlanRecord {
     /// The record of an answer.
     pub fn from_out(o: &PlanOut) -> Self {
-        let s = &o.start;
         Self {
             record: RECORD_VERSION,
             base_revision: o.base_revision,
             outcome: o.outcome.clone(),
             current_index: o.current_index,
-            stack: o.waypoints.iter().map(stored_item).collect(),
+            stack: o
+                .waypoints
+                .iter()
+                .map(|w| StoredItem::from(&GeoItem::from(w)))
+                .collect(),
             first_changed: o.diff.first_changed,
             removed: o.diff.remove,
             risk: o.risk,
@@ -127,15 +134,7 @@ impl PlanRecord {
             compute_ms: o.compute_ms,
             risk_map_used: o.dynamic_risk.source == DynamicSource::RiskMap,
             moving_obstacles: o.dynamic_risk.obstacles,
-            start: StoredStart {
-                from_telemetry: s.source == StartSource::Telemetry,
-                t_s: s.t,
-                lat_deg: s.lat,
-                lon_deg: s.lon,
-                alt_msl_m: s.alt_msl_m,
-                heading_deg: s.heading_deg,
-                speed_mps: s.speed_mps,
-            },
+            start: StoredStart::from(&Start::from(&o.start)),
             obstacles: o.obstacles.clone(),
             warnings: o.warnings.clone(),
             observation_seq: o.observation_seq,
@@ -147,13 +146,8 @@ impl PlanRecord {
         let waypoints = self
             .stack
             .iter()
-            .map(api_item)
+            .map(|s| GeoItem::try_from(s).map(|g| PlanWaypoint::from(&g)))
             .collect::<Result<Vec<_>, _>>()?;
-        let first = self
-            .first_changed
-            .unwrap_or(waypoints.len())
-            .min(waypoints.len());
-        let s = self.start;
         Ok(PlanOut {
             plan_id: row.id.to_string(),
             mission_id: row.mission_id.to_string(),
@@ -162,11 +156,7 @@ impl PlanRecord {
             outcome: self.outcome,
             seed: row.seed,
             current_index: self.current_index,
-            diff: DiffOut {
-                first_changed: self.first_changed,
-                remove: self.removed,
-                insert: waypoints[first..].to_vec(),
-            },
+            diff: DiffOut::of(self.first_changed, self.removed, &waypoints),
             waypoints,
             risk: self.risk,
             base_risk: self.base_risk,
@@ -186,19 +176,7 @@ impl PlanRecord {
             obstacles: self.obstacles,
             warnings: self.warnings,
             observation_seq: self.observation_seq,
-            start: StartOut {
-                source: if s.from_telemetry {
-                    StartSource::Telemetry
-                } else {
-                    StartSource::Stack
-                },
-                t: s.t_s,
-                lat: s.lat_deg,
-                lon: s.lon_deg,
-                alt_msl_m: s.alt_msl_m,
-                heading_deg: s.heading_deg,
-                speed_mps: s.speed_mps,
-            },
+            start: StartOut::from(&Start::from(&self.start)),
             created_at: format_rfc3339(row.created_at_s),
         })
     }
@@ -209,33 +187,71 @@ impl PlanRecord {
     }
 }
 
-fn stored_item(w: &PlanWaypoint) -> StoredItem {
-    StoredItem {
-        lat_deg: w.lat,
-        lon_deg: w.lon,
-        alt_msl_m: w.alt_msl_m,
-        kind: match w.kind {
-            KindOut::Mission => 'M',
-            KindOut::Avoid => 'A',
-            KindOut::Search => 'S',
-        },
-        mission_index: w.mission_index,
+impl From<&GeoItem> for StoredItem {
+    fn from(g: &GeoItem) -> Self {
+        Self {
+            lat_deg: g.at.lat,
+            lon_deg: g.at.lon,
+            alt_msl_m: g.at.alt_msl_m,
+            kind: match g.kind {
+                ItemKind::Mission => 'M',
+                ItemKind::Avoid => 'A',
+                ItemKind::Search => 'S',
+            },
+            mission_index: g.mission_index,
+        }
     }
 }
 
-fn api_item(s: &StoredItem) -> Result<PlanWaypoint, String> {
-    Ok(PlanWaypoint {
-        lat: s.lat_deg,
-        lon: s.lon_deg,
-        alt_msl_m: s.alt_msl_m,
-        kind: match s.kind {
-            'M' => KindOut::Mission,
-            'A' => KindOut::Avoid,
-            'S' => KindOut::Search,
-            other => return Err(format!("unknown stack item kind '{other}'")),
-        },
-        mission_index: s.mission_index,
-    })
+impl TryFrom<&StoredItem> for GeoItem {
+    type Error = String;
+    fn try_from(s: &StoredItem) -> Result<Self, String> {
+        Ok(Self {
+            at: Waypoint {
+                lat: s.lat_deg,
+                lon: s.lon_deg,
+                alt_msl_m: s.alt_msl_m,
+            },
+            kind: match s.kind {
+                'M' => ItemKind::Mission,
+                'A' => ItemKind::Avoid,
+                'S' => ItemKind::Search,
+                other => return Err(format!("unknown stack item kind '{other}'")),
+            },
+            mission_index: s.mission_index,
+        })
+    }
+}
+
+impl From<&Start> for StoredStart {
+    fn from(s: &Start) -> Self {
+        let a = &s.at;
+        Self {
+            from_telemetry: s.from_telemetry,
+            t_s: a.t_s,
+            lat_deg: a.lat_deg,
+            lon_deg: a.lon_deg,
+            alt_msl_m: a.alt_msl_m,
+            heading_deg: a.heading_deg,
+            speed_mps: a.speed_mps.unwrap_or(0.0),
+        }
+    }
+}
+
+impl From<&StoredStart> for Start {
+    fn from(s: &StoredStart) -> Self {
+        Self {
+            from_telemetry: s.from_telemetry,
+            at: TelemetryRow {
+                t_s: s.t_s,
+                lat_deg: s.lat_deg,
+                lon_deg: s.lon_deg,
+                alt_msl_m: s.alt_msl_m,
+                heading_deg: s.heading_deg,
+                speed_mps: Some(s.speed_mps),
+            },
+        }
+    }
 }
 
 /// The API answer of a stored plan row: a record, or (rows written before records) the
@@ -259,6 +275,7 @@ pub fn stored_plan_out(row: &PlanRow) -> Result<PlanOut, ApiError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::api::plans::{KindOut, StartSource};
 
     fn item(lat: f64, kind: KindOut, mission_index: Option<usize>) -> PlanWaypoint {
         PlanWaypoint {

@@ -1,16 +1,17 @@
-//! The plan's wire types: the response document ([`PlanOut`] and its parts), the inputs
-//! stored with each plan for replay ([`PlanInputs`]), and the download formats. The
-//! handlers and the planning glue are in [`super::plans`]; downloads in
-//! [`super::plan_files`].
+//! The plan's wire types: the response document ([`PlanOut`] and its parts) and the
+//! download formats, with their conversions from and to the pipeline's domain types
+//! ([`super::plan_compute`]). The handlers are in [`super::plans`]; downloads in
+//! [`super::plan_files`]; what is stored, in [`super::plan_inputs`] and
+//! [`super::plan_record`].
 
 use planner::{ItemKind, PlanOutcome};
 use serde::{Deserialize, Serialize};
 use utoipa::{IntoParams, ToSchema};
 
-use super::plans::StrategyIn;
-use crate::error::ApiError;
+use super::plan_compute::{GeoItem, Start};
 use crate::live::plan_view::{PlanObstacle, PlanWarning};
-use wire::ids::MissionId;
+use crate::mission::Waypoint;
+use crate::store::TelemetryRow;
 
 /// What a stack item is for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -80,79 +81,6 @@ pub enum StartSource {
     Telemetry,
     /// No telemetry: a stack item.
     Stack,
-}
-
-/// An obstacle observation used by a plan (the stored observation's wire form).
-pub type ObservationUsed = wire::telemetry::ObservationOut;
-
-/// Everything a plan depends on besides the mission: stored with it for replay.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PlanInputs {
-    /// Seed.
-    pub seed: u64,
-    /// Strategy.
-    pub strategy: StrategyIn,
-    /// Deadline, ms.
-    pub deadline_ms: Option<u64>,
-    /// Horizon, seconds.
-    pub horizon_s: f64,
-    /// Cruise speed, m/s.
-    pub speed_mps: f64,
-    /// Turn radius, m.
-    pub turn_radius_m: f64,
-    /// Current index in `stack`.
-    pub current_index: usize,
-    /// The base stack (empty = the mission's waypoints).
-    pub stack: Vec<PlanWaypoint>,
-    /// The start.
-    pub start: StartOut,
-    /// Observations fed to the predictor (offline `jink plan`; server plans name their
-    /// batches with `observation_seq` instead).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub observations: Vec<ObservationUsed>,
-    /// Plans stored before live state: the stored observations they used, for replay.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub observation_window: Option<ObservationWindow>,
-    /// Server plans: the live snapshot's cut-off, every observation batch `<=` this
-    /// sequence number (replay rebuilds the snapshot from the store).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub observation_seq: Option<i64>,
-}
-
-/// The stored observations a plan used: `after_us < t <= until_us`, received by
-/// `received_until_us` (Unix microseconds).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ObservationWindow {
-    /// Exclusive lower bound of observation time.
-    pub after_us: i64,
-    /// Inclusive upper bound of observation time.
-    pub until_us: i64,
-    /// Only observations received by then (the plan request's time).
-    pub received_until_us: i64,
-}
-
-impl ObservationWindow {
-    /// Fetches exactly these observations.
-    ///
-    /// # Errors
-    /// A database failure.
-    pub async fn fetch(
-        &self,
-        store: &crate::store::Store,
-        mission_id: &MissionId,
-    ) -> Result<Vec<ObservationUsed>, ApiError> {
-        Ok(store
-            .list_observations_window(
-                mission_id,
-                self.after_us,
-                self.until_us,
-                self.received_until_us,
-            )
-            .await?
-            .iter()
-            .map(ObservationUsed::from)
-            .collect())
-    }
 }
 
 /// How dynamic risk was obtained.
@@ -267,10 +195,99 @@ pub(crate) fn outcome_name(o: PlanOutcome) -> &'static str {
     }
 }
 
-pub(crate) fn kind_out(k: ItemKind) -> KindOut {
-    match k {
-        ItemKind::Mission => KindOut::Mission,
-        ItemKind::Avoid => KindOut::Avoid,
-        ItemKind::Search => KindOut::Search,
+impl From<ItemKind> for KindOut {
+    fn from(k: ItemKind) -> Self {
+        match k {
+            ItemKind::Mission => KindOut::Mission,
+            ItemKind::Avoid => KindOut::Avoid,
+            ItemKind::Search => KindOut::Search,
+        }
+    }
+}
+
+impl From<KindOut> for ItemKind {
+    fn from(k: KindOut) -> Self {
+        match k {
+            KindOut::Mission => ItemKind::Mission,
+            KindOut::Avoid => ItemKind::Avoid,
+            KindOut::Search => ItemKind::Search,
+        }
+    }
+}
+
+impl From<&GeoItem> for PlanWaypoint {
+    fn from(g: &GeoItem) -> Self {
+        Self {
+            lat: g.at.lat,
+            lon: g.at.lon,
+            alt_msl_m: g.at.alt_msl_m,
+            kind: g.kind.into(),
+            mission_index: g.mission_index,
+        }
+    }
+}
+
+impl From<&PlanWaypoint> for GeoItem {
+    fn from(w: &PlanWaypoint) -> Self {
+        Self {
+            at: Waypoint {
+                lat: w.lat,
+                lon: w.lon,
+                alt_msl_m: w.alt_msl_m,
+            },
+            kind: w.kind.into(),
+            mission_index: w.mission_index,
+        }
+    }
+}
+
+impl From<&Start> for StartOut {
+    fn from(s: &Start) -> Self {
+        let a = &s.at;
+        Self {
+            source: if s.from_telemetry {
+                StartSource::Telemetry
+            } else {
+                StartSource::Stack
+            },
+            t: a.t_s,
+            lat: a.lat_deg,
+            lon: a.lon_deg,
+            alt_msl_m: a.alt_msl_m,
+            heading_deg: a.heading_deg,
+            // 0 = unknown on the wire.
+            speed_mps: a.speed_mps.unwrap_or(0.0),
+        }
+    }
+}
+
+impl From<&StartOut> for Start {
+    fn from(s: &StartOut) -> Self {
+        Self {
+            from_telemetry: s.source == StartSource::Telemetry,
+            at: TelemetryRow {
+                t_s: s.t,
+                lat_deg: s.lat,
+                lon_deg: s.lon,
+                alt_msl_m: s.alt_msl_m,
+                heading_deg: s.heading_deg,
+                speed_mps: Some(s.speed_mps),
+            },
+        }
+    }
+}
+
+impl DiffOut {
+    /// The rewrite that deletes `remove` items from `first_changed` and writes the rest of
+    /// `waypoints` (the whole new stack) from there.
+    pub fn of(first_changed: Option<usize>, remove: usize, waypoints: &[PlanWaypoint]) -> Self {
+        let first = first_changed
+            .unwrap_or(waypoints.len())
+            .min(waypoints.len());
+        Self {
+            first_changed,
+            remove,
+            insert: waypoints[first..].to_vec(),
+        }
     }
 }

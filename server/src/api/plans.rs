@@ -15,8 +15,10 @@ use utoipa::ToSchema;
 use utoipa_axum::{router::OpenApiRouter, routes};
 
 use super::plan_compute::{
-    CancelOnDrop, compute, new_seed, plan_out, stack_start, stored_snapshot,
+    CancelOnDrop, GeoItem, Observations, PlanInputs, Start, compute, new_seed, plan_out,
+    stack_start, stored_snapshot,
 };
+use super::plan_inputs::{InputsRecord, stored_inputs};
 use super::plan_record::{PlanRecord, stored_plan_out};
 use crate::app::AppState;
 use crate::error::{ApiError, Problem};
@@ -41,6 +43,16 @@ pub enum StrategyIn {
     Insertion,
     /// Keep the stack; only evaluate its risk.
     None,
+}
+
+impl From<StrategyIn> for planner::Strategy {
+    fn from(s: StrategyIn) -> Self {
+        match s {
+            StrategyIn::Bisection => Self::Bisection,
+            StrategyIn::Insertion => Self::Insertion,
+            StrategyIn::None => Self::None,
+        }
+    }
 }
 
 /// Aircraft performance.
@@ -131,7 +143,8 @@ async fn create_plan(
             .await?
             .ok_or_else(|| ApiError::field("/base_revision", "no such revision"))?;
         let out = stored_plan_out(&row)?;
-        (out.waypoints, out.current_index)
+        let stack: Vec<GeoItem> = out.waypoints.iter().map(GeoItem::from).collect();
+        (stack, out.current_index)
     };
     let stack_len = if stack.is_empty() {
         mission.content.waypoints.len()
@@ -170,31 +183,26 @@ async fn create_plan(
     let now = now_s();
     let telemetry = state.store.list_telemetry(&id, Some(1)).await?;
     let start = match telemetry.last() {
-        Some(t) => StartOut {
-            source: StartSource::Telemetry,
-            t: t.t_s,
-            lat: t.lat_deg,
-            lon: t.lon_deg,
-            alt_msl_m: t.alt_msl_m,
-            heading_deg: t.heading_deg,
-            speed_mps: t.speed_mps.unwrap_or(0.0),
+        Some(t) => Start {
+            from_telemetry: true,
+            at: t.clone(),
         },
         None => stack_start(&mission, &stack, current_index, now),
     };
     let snap = state.live.snapshot(&state, &mission).await?;
     let inputs = PlanInputs {
         seed: body.seed.unwrap_or_else(new_seed),
-        strategy: body.strategy.unwrap_or_default(),
+        strategy: body.strategy.unwrap_or_default().into(),
         deadline_ms: body.deadline_ms,
         horizon_s,
-        speed_mps,
-        turn_radius_m,
+        aircraft: planner::Aircraft {
+            speed_mps,
+            turn_radius_m,
+        },
         current_index,
         stack,
         start,
-        observations: Vec::new(),
-        observation_window: None,
-        observation_seq: Some(snap.seq),
+        observations: Observations::Through(snap.seq),
     };
     let (m2, in2) = (mission.clone(), inputs.clone());
     let cancel = CancelOnDrop::default();
@@ -219,8 +227,8 @@ async fn create_plan(
         revision,
         created_at_s: now,
         seed: inputs.seed,
-        // `observation_seq` names the observations (every batch up to it).
-        inputs: serde_json::to_string(&inputs).map_err(|e| ApiError::Internal(e.to_string()))?,
+        // The record names the observations (every batch up to the snapshot's).
+        inputs: InputsRecord::of(&inputs).to_json()?,
         body: PlanRecord::from_out(&out).to_json()?,
     };
     match state.store.insert_plan(&row).await {
@@ -280,8 +288,7 @@ async fn replay_plan(
         .get_plan(&id, &plan_id)
         .await?
         .ok_or_else(|| ApiError::not_found("plan", plan_id.clone()))?;
-    let inputs: PlanInputs =
-        serde_json::from_str(&row.inputs).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let inputs: PlanInputs = stored_inputs(&row)?;
     let stored = stored_plan_out(&row)?;
     let snap = stored_snapshot(&state, &mission, &inputs).await?;
     let in2 = inputs.clone();
@@ -312,7 +319,7 @@ async fn replay_plan(
         identical: strip(&stored) == strip(&replayed),
         caveat: if inputs.deadline_ms.is_some() {
             Some("deadline".to_string())
-        } else if inputs.observation_seq.is_none() {
+        } else if !matches!(inputs.observations, Observations::Through(_)) {
             Some("stored_before_live_state".to_string())
         } else {
             None

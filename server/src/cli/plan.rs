@@ -15,13 +15,13 @@ use std::process::ExitCode;
 use clap::Args;
 
 use crate::api::plan_compute::{
-    compute, new_seed, plan_out, snapshot_from_observations, stack_start,
+    Observations, PlanInputs, Start, bearing_deg, compute, new_seed, plan_out,
+    snapshot_from_observations, stack_start,
 };
 use crate::api::plan_files::plan_file_text;
-use crate::api::plans::{
-    ObservationUsed, PlanFormat, PlanInputs, StartOut, StartSource, StrategyIn,
-};
+use crate::api::plans::{PlanFormat, StrategyIn};
 use crate::mission::Mission;
+use crate::store::{ObservationRow, TelemetryRow};
 
 /// Flags of `jink plan`.
 #[derive(Debug, Args)]
@@ -106,7 +106,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
         },
         Err(e) => return fail(format!("{}: {e}", args.mission.display())),
     };
-    let observations: Vec<ObservationUsed> = match &args.obstacles {
+    let observations: Vec<ObservationRow> = match &args.obstacles {
         None => Vec::new(),
         Some(p) => {
             let parsed = std::fs::read_to_string(p)
@@ -123,7 +123,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
                     })
                 });
             match parsed {
-                Ok(rows) => rows.iter().map(ObservationUsed::from).collect(),
+                Ok(rows) => rows,
                 Err(e) => return fail(format!("{}: {e}", p.display())),
             }
         }
@@ -149,62 +149,58 @@ pub fn run(args: PlanArgs) -> ExitCode {
     {
         return fail(format!("--heading {h} is not in [0, 360]"));
     }
-    let t0 = observations.iter().map(|o| o.t).fold(0.0, f64::max);
+    let t0 = observations.iter().map(|o| o.t_s).fold(0.0, f64::max);
     let current_index = args.current_index.min(m.content.waypoints.len());
     let mut observations = observations;
     observations.sort_by(|a, b| {
-        a.t.total_cmp(&b.t)
+        a.t_s
+            .total_cmp(&b.t_s)
             .then_with(|| a.obstacle_id.cmp(&b.obstacle_id))
     });
+    let snap = snapshot_from_observations(&m, &observations);
+    let from_stack = stack_start(&m, &[], current_index, t0);
+    let start = match args.position {
+        None => Start {
+            at: TelemetryRow {
+                heading_deg: args.heading.unwrap_or(from_stack.at.heading_deg),
+                ..from_stack.at
+            },
+            ..from_stack
+        },
+        Some((lat, lon, alt)) => {
+            let heading_deg = args.heading.unwrap_or_else(|| {
+                let to = m.content.waypoints.get(current_index);
+                to.map_or(from_stack.at.heading_deg, |to| {
+                    bearing_deg(&m, (lat, lon), (to.lat, to.lon))
+                })
+            });
+            Start {
+                from_telemetry: true,
+                at: TelemetryRow {
+                    lat_deg: lat,
+                    lon_deg: lon,
+                    alt_msl_m: alt.unwrap_or(from_stack.at.alt_msl_m),
+                    heading_deg,
+                    speed_mps: Some(args.speed_mps),
+                    ..from_stack.at
+                },
+            }
+        }
+    };
     let inputs = PlanInputs {
         seed: args.seed.unwrap_or_else(new_seed),
-        strategy,
+        strategy: strategy.into(),
         deadline_ms: args.deadline_ms,
         horizon_s: 60.0,
-        speed_mps: args.speed_mps,
-        turn_radius_m: args.turn_radius_m,
+        aircraft: planner::Aircraft {
+            speed_mps: args.speed_mps,
+            turn_radius_m: args.turn_radius_m,
+        },
         current_index,
         stack: Vec::new(),
-        start: {
-            let from_stack = stack_start(&m, &[], current_index, t0);
-            match args.position {
-                None => StartOut {
-                    heading_deg: args.heading.unwrap_or(from_stack.heading_deg),
-                    ..from_stack
-                },
-                Some((lat, lon, alt)) => {
-                    let heading_deg = args.heading.unwrap_or_else(|| {
-                        let to = m
-                            .content
-                            .waypoints
-                            .get(current_index)
-                            .map(|w| (w.lat, w.lon));
-                        to.map_or(from_stack.heading_deg, |(tl, tn)| {
-                            let f = m.frame();
-                            let (a, b) = (f.to_enu(lat, lon), f.to_enu(tl, tn));
-                            (b[0] - a[0])
-                                .atan2(b[1] - a[1])
-                                .to_degrees()
-                                .rem_euclid(360.0)
-                        })
-                    });
-                    StartOut {
-                        source: StartSource::Telemetry,
-                        lat,
-                        lon,
-                        alt_msl_m: alt.unwrap_or(from_stack.alt_msl_m),
-                        heading_deg,
-                        speed_mps: args.speed_mps,
-                        ..from_stack
-                    }
-                }
-            }
-        },
-        observations,
-        observation_window: None,
-        observation_seq: None,
+        start,
+        observations: Observations::Given(observations),
     };
-    let snap = snapshot_from_observations(&m, &inputs.observations);
     let computed = match compute(&m, &inputs, &snap, None) {
         Ok(c) => c,
         Err(e) => return fail(e),

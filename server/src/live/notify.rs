@@ -17,6 +17,7 @@ use sqlx::postgres::PgListener;
 
 use crate::app::AppState;
 use crate::store::observations::OBSERVATION_CHANNEL;
+use wire::ids::MissionId;
 
 /// Parses a notification payload `"<seq> <mission id>"`.
 pub fn parse_payload(payload: &str) -> Option<(i64, &str)> {
@@ -42,7 +43,7 @@ pub async fn listen(state: AppState, url: String) {
                         match listener.try_recv().await {
                             Ok(Some(n)) => {
                                 if let Some((seq, id)) = parse_payload(n.payload()) {
-                                    state.live.notified(&state, id, seq).await;
+                                    state.live.notified(&state, &MissionId::from(id), seq).await;
                                 }
                             }
                             // The connection was lost and is re-established by the next

@@ -531,19 +531,20 @@ mod tests {
         assert!(top[0] >= 165 && top[1] < 10 && top[2] < 10, "{top:?}");
         let low = rgb(&img, 400 + bx + 8, by + bh - 4);
         assert!(low[0] == 255 && low[1] > 200, "{low:?}");
-        let label_ink = (400..img.0)
-            .flat_map(|x| (8..18).map(move |y| (x, y)))
-            .filter(|&(x, y)| rgb(&img, x, y) == colour::INK)
-            .count();
+        // Ink pixels in the legend's column between rows `ys`.
+        let ink = |ys: std::ops::Range<u32>| {
+            (400..img.0)
+                .flat_map(|x| ys.clone().map(move |y| (x, y)))
+                .filter(|&(x, y)| rgb(&img, x, y) == colour::INK)
+                .count()
+        };
+        let label_ink = ink(8..18);
         assert!(
             label_ink > 20,
             "the time label is drawn: {label_ink} ink pixels"
         );
         // 1_700_003_661 s is 23:14:21 UTC: eight characters of clock time under it.
-        let clock_ink = (400..img.0)
-            .flat_map(|x| (22..32).map(move |y| (x, y)))
-            .filter(|&(x, y)| rgb(&img, x, y) == colour::INK)
-            .count();
+        let clock_ink = ink(22..32);
         assert!(
             clock_ink > 60,
             "the clock time is drawn: {clock_ink} ink pixels"

@@ -13,13 +13,12 @@ const T0: f64 = 1_700_000_000.0;
 
 /// Obstacle "7" flying east at 12 m/s from (38.147, -76.432), 10 Hz, observations i0..i1.
 fn straight(i0: u32, i1: u32) -> Value {
-    let lat0: f64 = 38.147;
-    let m_per_deg_lon = 111_320.0 * lat0.to_radians().cos();
+    let frame = wire::geodesy::LocalFrame::new(38.147, -76.432);
     let obs: Vec<Value> = (i0..i1)
         .map(|i| {
             let t = T0 + f64::from(i) * 0.1;
-            let x = 12.0 * f64::from(i) * 0.1;
-            json!({"obstacle_id": "7", "t": t, "lat": lat0, "lon": -76.432 + x / m_per_deg_lon, "alt_msl_m": 80.0, "radius_m": 15.0})
+            let (lat, lon) = frame.to_geodetic([12.0 * f64::from(i) * 0.1, 0.0]);
+            json!({"obstacle_id": "7", "t": t, "lat": lat, "lon": lon, "alt_msl_m": 80.0, "radius_m": 15.0})
         })
         .collect();
     json!({ "observations": obs })

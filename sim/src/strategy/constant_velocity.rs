@@ -10,11 +10,11 @@
 //! conflict (or the latest first conflict) and the least added length wins, with a
 //! hysteresis bonus for staying on the side chosen before.
 
-use super::route::rebuild_tail;
+use super::route::{tangent_route, tangent_stack};
 use super::{Command, Strategy, View};
 use crate::geometry::{P2, add, dist, perp_left, point_in_polygon, scale, sub, unit, xy};
 use crate::mission::{ItemKind, Stack, StackItem};
-use crate::tangent_graph::{TangentGraphParams, inflated_circles, shortest_path};
+use crate::tangent_graph::{TangentGraphParams, inflated_circles};
 use crate::telemetry::ObstacleObservation;
 
 /// A sphere extrapolated at constant velocity.
@@ -157,12 +157,9 @@ impl Strategy for ConstantVelocity {
     fn decide(&mut self, view: &View<'_>) -> Command {
         let m = view.mission;
         let g = self.graph;
-        let route = |a: P2, b: P2, alt: f64| {
-            let circles = inflated_circles(&m.cylinders, alt, &g);
-            shortest_path(a, b, &circles, crate::mission::fly_zone(m), &g).unwrap_or_default()
-        };
+        let route = |a: P2, b: P2, alt: f64| tangent_route(m, &g, a, b, alt);
         let own = xy(view.own.p_m);
-        let base = rebuild_tail(view.stack, own, |a, b, alt, _| route(a, b, alt));
+        let base = tangent_stack(view, &g);
         let spheres: Vec<CvSphere> = view
             .tracks
             .iter()

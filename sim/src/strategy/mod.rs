@@ -153,14 +153,20 @@ impl StrategyKind {
     /// Builds a fresh instance for one run; `seed` feeds every random choice it makes.
     pub fn build(self, seed: u64) -> Box<dyn Strategy> {
         match self {
-            Self::None => Box::new(Unchanged),
-            Self::Insertion => Box::new(insertion::Insertion::default()),
-            Self::Tangent => Box::new(tangent::Tangent::default()),
+            Self::None => Box::new(Hold(1e9)),
+            Self::Insertion => Box::new(FirstThen::new(insertion::insertion_stack, Hold(1.0))),
+            Self::Tangent => Box::new(FirstThen::new(tangent::tangent_command, Hold(1.0))),
             Self::ConstantVelocity => Box::new(constant_velocity::ConstantVelocity::default()),
             Self::Bisection(stage) => Box::new(bisection::Bisection::new(Some(stage), seed)),
             Self::BisectionAuto => Box::new(bisection::Bisection::new(None, seed)),
-            Self::ReactiveOffset => Box::new(reactive::Offset::default()),
-            Self::ReactiveSectors => Box::new(reactive::Sectors::default()),
+            Self::ReactiveOffset => Box::new(FirstThen::new(
+                tangent::tangent_command,
+                reactive::Onboard::new(reactive::Offset::default()),
+            )),
+            Self::ReactiveSectors => Box::new(FirstThen::new(
+                tangent::tangent_command,
+                reactive::Onboard::new(reactive::Sectors::default()),
+            )),
             Self::Oracle => Box::new(oracle::Oracle::new(seed)),
         }
     }
@@ -193,15 +199,54 @@ pub fn replan_command(
     }
 }
 
-/// The "none" strategy.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Unchanged;
+/// Keeps the stack, deciding every `.0` seconds: the "none" strategy (never, in effect),
+/// and the static strategies after their first call (every second).
+#[derive(Debug, Clone, Copy)]
+pub struct Hold(pub f64);
 
-impl Strategy for Unchanged {
+impl Strategy for Hold {
     fn period_s(&self) -> f64 {
-        1e9
+        self.0
     }
     fn decide(&mut self, _view: &View<'_>) -> Command {
         Command::Keep
+    }
+}
+
+/// A strategy in two parts: `first` decides the first call only (the static plan around
+/// the cylinders, which never move), `then` every later call; `then` sets the period and
+/// the scanner.
+#[derive(Debug, Clone)]
+pub struct FirstThen<F, S> {
+    first: Option<F>,
+    then: S,
+}
+
+impl<F, S> FirstThen<F, S> {
+    /// `first` at the first call, then `then`.
+    pub fn new(first: F, then: S) -> Self {
+        Self {
+            first: Some(first),
+            then,
+        }
+    }
+}
+
+impl<F, S> Strategy for FirstThen<F, S>
+where
+    F: FnOnce(&View<'_>) -> Command + Send,
+    S: Strategy,
+{
+    fn period_s(&self) -> f64 {
+        self.then.period_s()
+    }
+    fn lidar(&self) -> Option<LidarParams> {
+        self.then.lidar()
+    }
+    fn decide(&mut self, view: &View<'_>) -> Command {
+        match self.first.take() {
+            Some(first) => first(view),
+            None => self.then.decide(view),
+        }
     }
 }

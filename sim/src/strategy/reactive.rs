@@ -1,5 +1,6 @@
 //! Reactive LiDAR strategies, onboard style, on top of the tangent-graph route around the
-//! cylinders (planned once at the first call, as [`super::tangent`]):
+//! cylinders (planned at the first call by [`super::tangent`]; these decide the calls after
+//! it, through [`super::FirstThen`]):
 //!
 //! - [`Offset`]: the planner's Offset Algorithm (seeds 000/001) on the simulated LiDAR at
 //!   10 Hz, scaled to an aircraft (scan radii 30-150 m, window 16 one-degree beams, field of
@@ -21,19 +22,49 @@ use planner::reactive::{
     sectors_decide,
 };
 
-use super::route::rebuild_tail;
 use super::{Command, Strategy, View};
 use crate::geometry::{P2, add, dist, perp_left, scale, xy};
-use crate::lidar::LidarParams;
+use crate::lidar::{LidarParams, Scan};
 use crate::mission::{ItemKind, Stack, StackItem};
-use crate::tangent_graph::{TangentGraphParams, inflated_circles, shortest_path};
 
-fn tangent_stack(view: &View<'_>, g: &TangentGraphParams) -> Stack {
-    let m = view.mission;
-    rebuild_tail(view.stack, xy(view.own.p_m), |a, b, alt, _| {
-        let circles = inflated_circles(&m.cylinders, alt, g);
-        shortest_path(a, b, &circles, crate::mission::fly_zone(m), g).unwrap_or_default()
-    })
+/// An onboard avoider: decides from each LiDAR scan.
+pub trait Avoider: Send {
+    /// The command for this scan.
+    fn react(&mut self, view: &View<'_>, scan: &Scan) -> Command;
+}
+
+/// An [`Avoider`] on the simulated LiDAR, deciding at the scanner's 10 Hz (no scan: keep).
+#[derive(Debug)]
+pub struct Onboard<A> {
+    /// The avoider.
+    pub avoider: A,
+    /// Scanner.
+    pub lidar: LidarParams,
+}
+
+impl<A> Onboard<A> {
+    /// `avoider` on the default scanner.
+    pub fn new(avoider: A) -> Self {
+        Self {
+            avoider,
+            lidar: LidarParams::default(),
+        }
+    }
+}
+
+impl<A: Avoider> Strategy for Onboard<A> {
+    fn period_s(&self) -> f64 {
+        0.1
+    }
+    fn lidar(&self) -> Option<LidarParams> {
+        Some(self.lidar)
+    }
+    fn decide(&mut self, view: &View<'_>) -> Command {
+        match view.scan {
+            Some(scan) => self.avoider.react(view, scan),
+            None => Command::Keep,
+        }
+    }
 }
 
 /// Offset algorithm + Bezier pilot.
@@ -43,12 +74,7 @@ pub struct Offset {
     pub offset: OffsetParams,
     /// Pilot parameters.
     pub pilot: PilotParams,
-    /// Scanner.
-    pub lidar: LidarParams,
-    /// Cylinder routing.
-    pub graph: TangentGraphParams,
     ws: OffsetWorkspace,
-    planned: bool,
     last_avoid_s: f64,
     beams: Vec<Beam>,
     inserted: Vec<P2>,
@@ -62,10 +88,7 @@ impl Default for Offset {
                 .with_window(16)
                 .with_fov_deg(120.0),
             pilot: PilotParams::default().with_max_deviation_m(150.0),
-            lidar: LidarParams::default(),
-            graph: TangentGraphParams::default(),
             ws: OffsetWorkspace::new(),
-            planned: false,
             last_avoid_s: f64::NEG_INFINITY,
             beams: Vec::new(),
             inserted: Vec::new(),
@@ -73,19 +96,9 @@ impl Default for Offset {
     }
 }
 
-impl Strategy for Offset {
-    fn period_s(&self) -> f64 {
-        0.1
-    }
-    fn lidar(&self) -> Option<LidarParams> {
-        Some(self.lidar)
-    }
-    fn decide(&mut self, view: &View<'_>) -> Command {
-        if !self.planned {
-            self.planned = true;
-            return Command::Replace(tangent_stack(view, &self.graph));
-        }
-        let (Some(scan), Some(target)) = (view.scan, view.stack.target()) else {
+impl Avoider for Offset {
+    fn react(&mut self, view: &View<'_>, scan: &Scan) -> Command {
+        let Some(target) = view.stack.target() else {
             return Command::Keep;
         };
         // one avoidance at a time: while flying toward an inserted point, re-plan only every 3 s
@@ -148,39 +161,18 @@ impl Strategy for Offset {
 pub struct Sectors {
     /// Sector parameters.
     pub sectors: SectorParams,
-    /// Scanner.
-    pub lidar: LidarParams,
-    /// Cylinder routing.
-    pub graph: TangentGraphParams,
-    planned: bool,
 }
 
 impl Default for Sectors {
     fn default() -> Self {
         Self {
             sectors: SectorParams::default().with_obj_threshold_m(100.0),
-            lidar: LidarParams::default(),
-            graph: TangentGraphParams::default(),
-            planned: false,
         }
     }
 }
 
-impl Strategy for Sectors {
-    fn period_s(&self) -> f64 {
-        0.1
-    }
-    fn lidar(&self) -> Option<LidarParams> {
-        Some(self.lidar)
-    }
-    fn decide(&mut self, view: &View<'_>) -> Command {
-        if !self.planned {
-            self.planned = true;
-            return Command::Replace(tangent_stack(view, &self.graph));
-        }
-        let Some(scan) = view.scan else {
-            return Command::Keep;
-        };
+impl Avoider for Sectors {
+    fn react(&mut self, view: &View<'_>, scan: &Scan) -> Command {
         let angle_min = scan.angles_deg.first().copied().unwrap_or(0.0);
         let Ok(d) = sectors_decide(&scan.ranges_m, angle_min, &self.sectors) else {
             return Command::Keep;

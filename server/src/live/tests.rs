@@ -1,0 +1,85 @@
+//! Tests of the live-state registry: map eviction and reuse across missions.
+
+use super::*;
+use crate::app::Settings;
+use crate::store::Store;
+
+/// A SQLite state keeping at most one map, with two Webster missions ("a", "b") of
+/// three obstacles over 10 s.
+async fn two_missions(dir: &tempfile::TempDir) -> (AppState, Mission, Mission) {
+    let url = format!("sqlite://{}", dir.path().join("live.sqlite").display());
+    let store = Store::open(&url).await.expect("open");
+    let cfg = LiveConfig {
+        max_maps: 1,
+        ..LiveConfig::default()
+    };
+    let state = AppState::new(
+        store,
+        Settings {
+            live: cfg,
+            ..Settings::default()
+        },
+    );
+    let text = include_str!("../../../tests/fixtures/interop/mission_2021_webster_field.json");
+    let a = wire::domain::read_mission_text(text, "a").expect("fixture");
+    let b = wire::domain::read_mission_text(text, "b").expect("fixture");
+    state
+        .store
+        .insert_missions(&[a.clone(), b.clone()], 0.0)
+        .await
+        .expect("missions");
+    for m in [&a, &b] {
+        for i in 0..50 {
+            let t = 1_700_000_000.0 + 0.2 * f64::from(i);
+            let rows: Vec<ObservationRow> = (0..3)
+                .map(|k| ObservationRow {
+                    obstacle_id: k.to_string(),
+                    t_s: t,
+                    lat_deg: 38.145 + 0.0001 * f64::from(i) + 0.001 * f64::from(k),
+                    lon_deg: -76.429,
+                    alt_msl_m: 60.0,
+                    radius_m: 20.0,
+                })
+                .collect();
+            state
+                .store
+                .insert_observations(&m.id, &rows, t)
+                .await
+                .expect("insert");
+        }
+    }
+    (state, a, b)
+}
+
+fn cells(s: &Snapshot) -> Vec<f32> {
+    let map = s.map.as_ref().expect("map");
+    (0..60)
+        .flat_map(|k| map.slice(map.t0_s() + f64::from(k)).data)
+        .collect()
+}
+
+#[tokio::test]
+async fn maps_are_built_only_for_map_reads_and_at_most_max_maps_are_kept() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (state, a, b) = two_missions(&dir).await;
+    let live = &state.live;
+    // The obstacle list reads the predictor alone: no map is built.
+    let view = live.predictor_view(&state, &a).await.expect("view");
+    assert_eq!((view.seq, view.predictor.obstacles().count()), (50, 3));
+    let la = live.cached(&a.id).expect("live");
+    assert!(!la.has_map());
+    // A map read builds it.
+    let first = live.snapshot(&state, &a).await.expect("snapshot");
+    assert_eq!(first.seq, 50);
+    assert!(la.has_map());
+    // A map of another mission drops the least recently read one (max_maps = 1)...
+    let sb = live.snapshot(&state, &b).await.expect("snapshot");
+    assert!(sb.map.is_some());
+    assert!(!la.has_map());
+    assert!(live.cached(&b.id).expect("live").has_map());
+    // ... and it comes back, the same cells bit for bit, when read again.
+    let again = live.snapshot(&state, &a).await.expect("snapshot");
+    assert!(!Arc::ptr_eq(&first, &again));
+    assert_eq!(again.map_ids, first.map_ids);
+    assert_eq!(cells(&again), cells(&first));
+}
