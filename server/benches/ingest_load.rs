@@ -8,6 +8,8 @@
 //! "Durably ingested" means acknowledged with 202 and counted as `accepted`; the count is
 //! checked against what the database holds at the end.
 
+// Each bench uses part of the shared support.
+#[allow(dead_code)]
 mod support;
 
 use std::sync::Arc;

@@ -21,8 +21,7 @@
 mod support;
 
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -50,7 +49,6 @@ fn jink_token(db_url: &str, name: &str, role: &str) -> String {
     );
     String::from_utf8(out.stdout).unwrap().trim().to_string()
 }
-
 
 #[derive(Default)]
 struct Tally {

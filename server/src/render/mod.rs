@@ -233,7 +233,7 @@ pub fn risk_png(
         map_w + LEGEND_W_PX,
         map_h.max(LEGEND_BAR.2 + LEGEND_BAR.3 + 30),
     );
-    let mut pixmap = Pixmap::new(w, h).ok_or_else(|| png::EncodingError::LimitsExceeded)?;
+    let mut pixmap = Pixmap::new(w, h).ok_or(png::EncodingError::LimitsExceeded)?;
     pixmap.fill(Color::WHITE);
     let mut cv = Canvas {
         pixmap,
