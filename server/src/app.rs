@@ -162,7 +162,23 @@ fn with_middleware(routes: Router, state: AppState) -> Router {
                 .get::<MatchedPath>()
                 .map_or("-", MatchedPath::as_str);
             tracing::info_span!("request", method = %req.method(), path = %req.uri().path(), route)
-        }))
+        })
+        .on_failure(log_failure))
+}
+
+/// Logs a failed response at ERROR, except 503: an overloaded plan pool answers 503 with
+/// `Retry-After` by design, and one ERROR line per refusal cost CPU and buried real errors
+/// during a flood (they are still counted in `/metrics`).
+fn log_failure(
+    class: tower_http::classify::ServerErrorsFailureClass,
+    latency: std::time::Duration,
+    _span: &tracing::Span,
+) {
+    use tower_http::classify::ServerErrorsFailureClass as Class;
+    if matches!(class, Class::StatusCode(s) if s == axum::http::StatusCode::SERVICE_UNAVAILABLE) {
+        return;
+    }
+    tracing::error!(classification = %class, latency_ms = latency.as_millis(), "response failed");
 }
 
 /// The answer to a request whose handler panicked: a 500 problem document whose hidden
