@@ -497,13 +497,11 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_calm_leg_is_returned_straight_without_search() {
-        let zones = Zones::default();
-        let e = env(&predictor::field::NoRisk, &zones);
-        let mut rng = ChaCha8Rng::seed_from_u64(1);
-        let r = bisect_leg(
-            &e,
+    /// Searches the leg (0, 0) -> (1000, 0) from t = 0 at a 40 m turn radius.
+    fn search(e: &LegEnv<'_>, seed: u64) -> LegSearch {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        bisect_leg(
+            e,
             [0.0, 0.0],
             [1000.0, 0.0],
             0.0,
@@ -513,7 +511,14 @@ mod tests {
             &Termination::default(),
             &mut rng,
             &mut Workspace::default(),
-        );
+        )
+    }
+
+    #[test]
+    fn a_calm_leg_is_returned_straight_without_search() {
+        let zones = Zones::default();
+        let e = env(&predictor::field::NoRisk, &zones);
+        let r = search(&e, 1);
         assert!(r.points.is_empty() && !r.searched);
     }
 
@@ -521,19 +526,7 @@ mod tests {
     fn a_disc_on_the_leg_is_avoided() {
         let zones = Zones::default();
         let e = env(&Disc, &zones);
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let r = bisect_leg(
-            &e,
-            [0.0, 0.0],
-            [1000.0, 0.0],
-            0.0,
-            40.0,
-            &BisectionParams::default(),
-            None,
-            &Termination::default(),
-            &mut rng,
-            &mut Workspace::default(),
-        );
+        let r = search(&e, 7);
         assert!(r.searched && !r.points.is_empty());
         let mut pts = vec![[0.0, 0.0]];
         pts.extend(&r.points);
@@ -546,22 +539,7 @@ mod tests {
     fn the_same_seed_gives_the_same_points() {
         let zones = Zones::default();
         let e = env(&Disc, &zones);
-        let run = |seed| {
-            let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            bisect_leg(
-                &e,
-                [0.0, 0.0],
-                [1000.0, 0.0],
-                0.0,
-                40.0,
-                &BisectionParams::default(),
-                None,
-                &Termination::default(),
-                &mut rng,
-                &mut Workspace::default(),
-            )
-            .points
-        };
+        let run = |seed| search(&e, seed).points;
         assert_eq!(run(3), run(3));
         assert_ne!(run(3), run(4));
     }

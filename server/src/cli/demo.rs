@@ -80,15 +80,8 @@ pub struct DemoArgs {
 pub fn run(args: DemoArgs) -> ExitCode {
     // Warnings only: the terminal shows the demo's own progress lines.
     super::serve::init_logging_with(super::serve::LogFormat::Text, "warn");
-    let rt = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
-        Ok(rt) => rt,
-        Err(e) => {
-            eprintln!("jink demo: cannot start the async runtime: {e}");
-            return ExitCode::FAILURE;
-        }
+    let Some(rt) = super::runtime(tokio::runtime::Builder::new_multi_thread()) else {
+        return ExitCode::FAILURE;
     };
     rt.block_on(async move {
         match demo(args).await {

@@ -56,3 +56,15 @@ pub fn run() -> ExitCode {
         // jink:dispatch
     }
 }
+
+/// Builds the async runtime `builder` describes (with I/O and timers), or says on stderr
+/// why it cannot.
+fn runtime(mut builder: tokio::runtime::Builder) -> Option<tokio::runtime::Runtime> {
+    match builder.enable_all().build() {
+        Ok(rt) => Some(rt),
+        Err(e) => {
+            eprintln!("jink: cannot start the async runtime: {e}");
+            None
+        }
+    }
+}

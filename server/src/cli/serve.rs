@@ -248,15 +248,8 @@ pub fn init_logging_with(format: LogFormat, default_filter: &str) {
 /// Runs the service until a shutdown signal.
 pub fn run(args: ServeArgs) -> ExitCode {
     init_logging(args.log_format);
-    let rt = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
-        Ok(rt) => rt,
-        Err(e) => {
-            eprintln!("jink: cannot start the async runtime: {e}");
-            return ExitCode::FAILURE;
-        }
+    let Some(rt) = super::runtime(tokio::runtime::Builder::new_multi_thread()) else {
+        return ExitCode::FAILURE;
     };
     let code = rt.block_on(async move {
         let net = match args.access.net() {

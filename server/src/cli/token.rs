@@ -62,15 +62,8 @@ fn valid_name(name: &str) -> bool {
 
 /// Runs `jink token ...`.
 pub fn run(args: TokenArgs) -> ExitCode {
-    let rt = match tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-    {
-        Ok(rt) => rt,
-        Err(e) => {
-            eprintln!("jink: cannot start the async runtime: {e}");
-            return ExitCode::FAILURE;
-        }
+    let Some(rt) = super::runtime(tokio::runtime::Builder::new_current_thread()) else {
+        return ExitCode::FAILURE;
     };
     rt.block_on(async move {
         let store = match Store::open(&args.database_url).await {

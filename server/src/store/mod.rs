@@ -321,16 +321,10 @@ impl Store {
         obstacle_id: Option<&str>,
         after_s: Option<f64>,
     ) -> Result<Vec<ObservationRow>, sqlx::Error> {
-        let rows = sqlx::query(
-            "SELECT obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m FROM obstacle_observations \
-             WHERE mission_id = $1 AND ($2 IS NULL OR obstacle_id = $2) AND t_us > $3 ORDER BY t_us, obstacle_id",
-        )
-        .bind(mission_id.to_string())
-        .bind(obstacle_id.map(str::to_string))
-        .bind(after_s.map_or(i64::MIN, to_us))
-        .fetch_all(&self.read)
-        .await?;
-        rows.iter().map(observation_row).collect()
+        let rows = self
+            .list_observations_written(mission_id, obstacle_id, after_s)
+            .await?;
+        Ok(rows.into_iter().map(|(row, _writer)| row).collect())
     }
 
     /// A mission's observations with `after_us < t <= until_us` that had been received by
@@ -418,29 +412,8 @@ impl Store {
         mission_id: &MissionId,
         last: Option<u32>,
     ) -> Result<Vec<TelemetryRow>, sqlx::Error> {
-        let rows = sqlx::query(
-            "SELECT t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps FROM aircraft_telemetry \
-             WHERE mission_id = $1 ORDER BY t_us DESC LIMIT $2",
-        )
-        .bind(mission_id.to_string())
-        .bind(i64::from(last.unwrap_or(u32::MAX)))
-        .fetch_all(&self.read)
-        .await?;
-        let mut out: Vec<TelemetryRow> = rows
-            .iter()
-            .map(|r| {
-                Ok(TelemetryRow {
-                    t_s: from_us(r.try_get(0)?),
-                    lat_deg: r.try_get(1)?,
-                    lon_deg: r.try_get(2)?,
-                    alt_msl_m: r.try_get(3)?,
-                    heading_deg: r.try_get(4)?,
-                    speed_mps: r.try_get(5)?,
-                })
-            })
-            .collect::<Result<_, sqlx::Error>>()?;
-        out.reverse();
-        Ok(out)
+        let rows = self.list_telemetry_written(mission_id, last).await?;
+        Ok(rows.into_iter().map(|(row, _writer)| row).collect())
     }
 }
 

@@ -262,17 +262,7 @@ impl Drop for App {
             let _ = c.wait();
         }
         if let Some(name) = self.pg_db.take() {
-            // Drop runs inside the test's runtime: use a thread with its own runtime.
-            let _ = std::thread::spawn(move || {
-                let rt = tokio::runtime::Builder::new_current_thread()
-                    .enable_all()
-                    .build()
-                    .unwrap();
-                let _ = rt.block_on(admin_sql(&format!(
-                    "DROP DATABASE IF EXISTS {name} WITH (FORCE)"
-                )));
-            })
-            .join();
+            drop_database(name);
         }
     }
 }
@@ -306,7 +296,23 @@ pub fn spawn_jink(args: &[&str], dir: &Path, log: &str) -> (Child, mpsc::IntoIte
     (child, rx.into_iter())
 }
 
-async fn admin_sql(sql: &str) -> Result<(), String> {
+/// Drops PostgreSQL database `name`, from a thread with its own runtime (drops run inside
+/// a test's runtime, which cannot block on another future).
+pub fn drop_database(name: String) {
+    let _ = std::thread::spawn(move || {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        let _ = rt.block_on(admin_sql(&format!(
+            "DROP DATABASE IF EXISTS {name} WITH (FORCE)"
+        )));
+    })
+    .join();
+}
+
+/// Runs `sql` as the PostgreSQL administrator (10 s at most).
+pub async fn admin_sql(sql: &str) -> Result<(), String> {
     use sqlx::Connection;
     let fut = async {
         let mut c = sqlx::PgConnection::connect(&postgres_admin_url())

@@ -30,7 +30,7 @@ impl Db {
     /// reachable, unless `JINK_REQUIRE_POSTGRES=1` (then it panics).
     pub async fn postgres() -> Option<Db> {
         let name = format!("jink_sec_{:016x}", rand::random::<u64>());
-        if let Err(e) = admin_sql(&format!("CREATE DATABASE {name}")).await {
+        if let Err(e) = crate::support::admin_sql(&format!("CREATE DATABASE {name}")).await {
             if std::env::var("JINK_REQUIRE_POSTGRES").is_ok_and(|v| v == "1") {
                 panic!(
                     "PostgreSQL is required (JINK_REQUIRE_POSTGRES=1) but {} is not usable: {e}",
@@ -81,35 +81,9 @@ impl Db {
 impl Drop for Db {
     fn drop(&mut self) {
         if let Some(name) = self.pg_name.take() {
-            let _ = std::thread::spawn(move || {
-                let rt = tokio::runtime::Builder::new_current_thread()
-                    .enable_all()
-                    .build()
-                    .unwrap();
-                let _ = rt.block_on(admin_sql(&format!(
-                    "DROP DATABASE IF EXISTS {name} WITH (FORCE)"
-                )));
-            })
-            .join();
+            crate::support::drop_database(name);
         }
     }
-}
-
-async fn admin_sql(sql: &str) -> Result<(), String> {
-    use sqlx::Connection;
-    let fut = async {
-        let mut c = sqlx::PgConnection::connect(&crate::support::postgres_admin_url())
-            .await
-            .map_err(|e| e.to_string())?;
-        sqlx::raw_sql(sqlx::AssertSqlSafe(sql.to_string()))
-            .execute(&mut c)
-            .await
-            .map_err(|e| e.to_string())?;
-        c.close().await.map_err(|e| e.to_string())
-    };
-    tokio::time::timeout(Duration::from_secs(10), fut)
-        .await
-        .map_err(|_| "timed out".to_string())?
 }
 
 /// A running `jink serve`.
