@@ -57,7 +57,8 @@ pub struct VerifyParams {
     pub far_risk: f64,
     /// The L1 distance of the track-following autopilot the second flown path models,
     /// in seconds of flight: `L1 = l1_s * speed` (ArduPlane's defaults, period 17 s and
-    /// damping 0.75, give `0.75 * 17 / pi = 4.06 s`). Default 4.06.
+    /// damping 0.75, give `0.75 * 17 / pi = 4.06 s`), at most twice the turn radius.
+    /// Default 4.06.
     pub l1_s: f64,
     /// The autopilot's waypoint acceptance radius, metres (it switches to the next item
     /// within it or once past the item's finish line). Default 10.
@@ -129,6 +130,10 @@ pub struct Verification {
     pub exposure_m: f64,
     /// Cylinders entered (counted once per cylinder).
     pub cylinder_hits: usize,
+    /// Of those, the cylinders the polyline itself enters (the route's legs, not only a
+    /// modelled flight of them).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub polyline_cylinder_hits: usize,
     /// Legs of the polyline that leave the fly zone.
     pub zone_exits: usize,
     /// Index in the tail of the first item the aircraft cannot fly to.
@@ -152,10 +157,16 @@ impl Verification {
         self.hard() == 0 && self.graded_peak_risk <= safe_risk
     }
 
-    /// Orders two verifications of candidate routes: fewer hard violations, then clear
+    /// Orders two verifications of candidate routes: fewer cylinders crossed by the
+    /// polyline, then fewer hard violations, then clear
     /// before unclear, then (both unclear) lower near-term peak, lower peak, lower exposure;
     /// then shorter. True when `self` is strictly better than `other`.
     pub fn better_than(&self, other: &Verification, safe_risk: f64) -> bool {
+        // A route whose legs cross a cylinder is worse than one whose legs pass it and
+        // only a modelled flight clips it (the flight models differ; the legs do not).
+        if self.polyline_cylinder_hits != other.polyline_cylinder_hits {
+            return self.polyline_cylinder_hits < other.polyline_cylinder_hits;
+        }
         if self.hard() != other.hard() {
             return self.hard() < other.hard();
         }
@@ -323,6 +334,8 @@ pub fn verify_route<'e>(
         prev_alt = it.alt_m;
     }
 
+    acc.out.polyline_cylinder_hits = acc.out.cylinder_hits;
+
     // The flown path, within the horizon (beyond it the polyline's checks stand).
     if turn_radius_m > 0.0
         && let Some(first) = tail.first()
@@ -338,7 +351,10 @@ pub fn verify_route<'e>(
     for guidance in [
         Guidance::Pursuit,
         Guidance::L1 {
-            l1_m: params.l1_s * speed_mps,
+            // At most twice the turn radius: a longer L1 never commands the full bank
+            // (its lateral acceleration 2 V^2 / L1 stays under V^2 / R), and an autopilot
+            // tuned for the aircraft flies a tighter one.
+            l1_m: (params.l1_s * speed_mps).min(2.0 * turn_radius_m),
             acceptance_m: params.acceptance_m,
         },
     ] {
