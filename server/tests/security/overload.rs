@@ -63,6 +63,12 @@ async fn a_full_plan_pool_answers_503_with_retry_after_while_ingest_succeeds() {
                             assert_eq!(p["type"], "urn:jink:problem:plan-pool-full");
                             refused += 1;
                         }
+                        // Two plans of one mission computed at once: the later one's
+                        // revision was taken (documented; the client plans again).
+                        409 => {
+                            let p = problem(r, 409).await;
+                            assert_eq!(p["type"], "urn:jink:problem:conflict");
+                        }
                         other => panic!("plan answered {other}: {}", r.text().await.unwrap()),
                     }
                 }
