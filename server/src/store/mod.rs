@@ -503,3 +503,9 @@ mod tests {
         );
     }
 }
+
+/// Whether `e` is the database refusing a write for a constraint of `kind` (a name or
+/// revision already taken, a missing parent row): the callers' typed errors.
+fn violates(e: &sqlx::Error, kind: sqlx::error::ErrorKind) -> bool {
+    matches!(e, sqlx::Error::Database(d) if d.kind() == kind)
+}

@@ -69,14 +69,10 @@ impl Store {
         .await;
         match r {
             Ok(_) => Ok(()),
-            Err(sqlx::Error::Database(e))
-                if e.kind() == sqlx::error::ErrorKind::UniqueViolation =>
-            {
+            Err(e) if super::violates(&e, sqlx::error::ErrorKind::UniqueViolation) => {
                 Err(InsertPlanError::RevisionTaken(row.revision))
             }
-            Err(sqlx::Error::Database(e))
-                if e.kind() == sqlx::error::ErrorKind::ForeignKeyViolation =>
-            {
+            Err(e) if super::violates(&e, sqlx::error::ErrorKind::ForeignKeyViolation) => {
                 Err(InsertPlanError::NoMission)
             }
             Err(e) => Err(e.into()),

@@ -56,9 +56,7 @@ impl Store {
         .await;
         match r {
             Ok(_) => Ok(()),
-            Err(sqlx::Error::Database(e))
-                if e.kind() == sqlx::error::ErrorKind::UniqueViolation =>
-            {
+            Err(e) if super::violates(&e, sqlx::error::ErrorKind::UniqueViolation) => {
                 Err(CreateTokenError::NameTaken(name.to_string()))
             }
             Err(e) => Err(e.into()),
