@@ -69,6 +69,12 @@ pub struct ServeArgs {
     #[arg(long, env = "JINK_PLAN_MAP_MAX_AGE_MS", default_value_t = crate::live::DEFAULT_PLAN_MAP_MAX_AGE_MS)]
     pub plan_map_max_age_ms: u64,
 
+    /// How much lower the scheduling priority of plan and risk-map threads is than the
+    /// server's (nice increment, 0-19; Linux): ingest keeps precedence on a busy machine.
+    /// 0 runs them at the server's priority.
+    #[arg(long, env = "JINK_CPU_JOB_NICE", default_value_t = crate::limits::CPU_JOB_NICE)]
+    pub cpu_job_nice: i32,
+
     /// Log format on stderr. Levels come from `RUST_LOG` (default `info`).
     #[arg(long, env = "JINK_LOG_FORMAT", value_enum, default_value = "text")]
     pub log_format: LogFormat,
@@ -291,6 +297,7 @@ pub fn run(args: ServeArgs) -> ExitCode {
                 }
             }
         }
+        crate::limits::set_cpu_job_nice(args.cpu_job_nice);
         let state = AppState::new(
             store,
             Settings {
