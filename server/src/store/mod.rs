@@ -506,6 +506,12 @@ pub(crate) fn values_sql(head: &str, cols: usize, rows: usize, tail: &str) -> St
     s
 }
 
+/// Whether `e` is the database refusing a write for a constraint of `kind` (a name or
+/// revision already taken, a missing parent row): the callers' typed errors.
+fn violates(e: &sqlx::Error, kind: sqlx::error::ErrorKind) -> bool {
+    matches!(e, sqlx::Error::Database(d) if d.kind() == kind)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -517,10 +523,4 @@ mod tests {
             "INSERT INTO t VALUES ($1,$2),($3,$4);"
         );
     }
-}
-
-/// Whether `e` is the database refusing a write for a constraint of `kind` (a name or
-/// revision already taken, a missing parent row): the callers' typed errors.
-fn violates(e: &sqlx::Error, kind: sqlx::error::ErrorKind) -> bool {
-    matches!(e, sqlx::Error::Database(d) if d.kind() == kind)
 }
