@@ -52,10 +52,45 @@ fn snapshot(t: f64) -> Value {
     json!({"time": t, "moving_obstacles": moving, "stationary_obstacles": []})
 }
 
+/// The `Server-Timing` header of `r` (empty when absent).
+fn server_timing(r: &reqwest::Response) -> String {
+    r.headers()
+        .get("server-timing")
+        .and_then(|h| h.to_str().ok())
+        .unwrap_or_default()
+        .to_string()
+}
+
+/// Adds each `name;dur=ms` of a `Server-Timing` value to `phases`.
+fn add_phases(phases: &mut std::collections::BTreeMap<String, Vec<f64>>, timing: &str) {
+    for part in timing.split(", ") {
+        if let Some((name, dur)) = part.split_once(";dur=")
+            && let Ok(ms) = dur.parse::<f64>()
+        {
+            phases.entry(name.to_string()).or_default().push(ms);
+        }
+    }
+}
+
+/// `name p50/p99` of each phase.
+fn phase_pcts(phases: &mut std::collections::BTreeMap<String, Vec<f64>>) -> String {
+    phases
+        .iter_mut()
+        .map(|(k, v)| format!("{k} {:.2}/{:.2}", pct(v, 0.5), pct(v, 0.99)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 struct Phase {
     plan_rt_ms: Vec<f64>,
     plan_compute_ms: Vec<f64>,
+    /// The server's `Server-Timing` phases of each plan, by name.
+    plan_phases: std::collections::BTreeMap<String, Vec<f64>>,
+    /// Plans whose map lacked the batch posted just before (`map_lag_batches` > 0).
+    plans_lagging: usize,
     ingest_ms: Vec<f64>,
+    /// The server's `Server-Timing` phases of each ingest, by name.
+    ingest_phases: std::collections::BTreeMap<String, Vec<f64>>,
     cpu_s: f64,
     seconds: f64,
 }
@@ -72,7 +107,10 @@ async fn fly(
     let mut ph = Phase {
         plan_rt_ms: Vec::new(),
         plan_compute_ms: Vec::new(),
+        plan_phases: std::collections::BTreeMap::new(),
+        plans_lagging: 0,
         ingest_ms: Vec::new(),
+        ingest_phases: std::collections::BTreeMap::new(),
         cpu_s: 0.0,
         seconds: f64::from(seconds),
     };
@@ -82,7 +120,7 @@ async fn fly(
     for i in 0..ticks {
         let t = t0 + f64::from(i) * 0.2;
         let s = Instant::now();
-        expect(
+        let r = expect(
             client
                 .post(format!("{base}/api/v1/missions/{id}/obstacles"))
                 .json(&snapshot(t)),
@@ -90,6 +128,8 @@ async fn fly(
         )
         .await;
         ph.ingest_ms.push(s.elapsed().as_secs_f64() * 1e3);
+        let timing = server_timing(&r);
+        add_phases(&mut ph.ingest_phases, &timing);
         let sample = json!({"t": t, "lat": 38.1446916666667 + 0.00001 * f64::from(i % 50), "lon": -76.4279944444445,
                             "alt_msl_m": 60.96, "heading_deg": 60.0, "speed_mps": 20.0});
         expect(
@@ -103,9 +143,14 @@ async fn fly(
             let s = Instant::now();
             let plan = client.post(format!("{base}/api/v1/missions/{id}/plan"));
             let r = expect(plan.json(&json!({"seed": 7, "current_index": 1})), 201).await;
+            let timing = server_timing(&r);
             let v: Value = r.json().await.unwrap();
             ph.plan_rt_ms.push(s.elapsed().as_secs_f64() * 1e3);
             ph.plan_compute_ms.push(v["compute_ms"].as_f64().unwrap());
+            if v["map_lag_batches"].as_i64().unwrap_or(0) > 0 {
+                ph.plans_lagging += 1;
+            }
+            add_phases(&mut ph.plan_phases, &timing);
         }
         // Real time: the next tick 0.2 s after this one.
         let next = start + Duration::from_millis(200 * u64::from(i + 1));
@@ -144,6 +189,15 @@ fn main() {
                 pct(&mut ph.ingest_ms, 0.99),
                 ph.cpu_s / ph.seconds * 1e3,
             );
+            if !ph.plan_phases.is_empty() {
+                println!(
+                    "    server-side phases (Server-Timing), ms p50/p99: plan {}; ingest {}; {} of {} plans used the map published before the batch just posted",
+                    phase_pcts(&mut ph.plan_phases),
+                    phase_pcts(&mut ph.ingest_phases),
+                    ph.plans_lagging,
+                    ph.plan_rt_ms.len()
+                );
+            }
         }
         let rss0 = rss_mb(pid);
         for _ in 0..missions {

@@ -28,9 +28,11 @@ pub fn spawn_jink(db_url: &str) -> (Child, String) {
     spawn_jink_with(db_url, &[])
 }
 
-/// [`spawn_jink`] with more `serve` arguments.
+/// [`spawn_jink`] with more `serve` arguments. `JINK_BENCH_BIN` names another `jink`
+/// binary to measure (e.g. one built from an older commit), else this build's.
 pub fn spawn_jink_with(db_url: &str, extra: &[&str]) -> (Child, String) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
+    let bin = std::env::var("JINK_BENCH_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_jink").into());
+    let mut child = Command::new(bin)
         .args(["serve", "--bind", "127.0.0.1:0", "--database-url", db_url])
         .args(extra)
         .env("RUST_LOG", "warn")

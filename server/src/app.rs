@@ -128,7 +128,11 @@ impl AppState {
             .acquire()
             .await
             .map_err(|e| ApiError::Internal(e.to_string()))?;
-        Ok(tokio::task::spawn_blocking(f).await?)
+        Ok(tokio::task::spawn_blocking(move || {
+            crate::limits::background_priority();
+            f()
+        })
+        .await?)
     }
 }
 

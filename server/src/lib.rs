@@ -29,6 +29,7 @@ mod net;
 mod page;
 mod render;
 mod store;
+mod timing;
 
 pub(crate) use wire::{geodesy, mission, time};
 

@@ -7,6 +7,10 @@
 //!   admitted and waiting. A plan request beyond that is refused at once, before any work,
 //!   with 503 and `Retry-After` (the expected wait for the queue to drain, from the recent
 //!   plan durations). Ingest never goes through this pool.
+//! - **Priority**: CPU jobs (plans and risk-map builds, [`PlanTicket::run`] and
+//!   `AppState::run_cpu`) run at a lower scheduling priority than the
+//!   async runtime's threads (nice + [`CPU_JOB_NICE`]), so on a saturated machine the kernel runs ingest first and
+//!   plans take what is left (Linux; elsewhere a no-op).
 //! - **Items per request** ([`check_items`]): observations per batch, waypoints, fly-zone
 //!   boundary points, and any other list, counted in the JSON before it is parsed into
 //!   missions or observations (whose validation costs grow with them); 413 naming the list
@@ -29,6 +33,41 @@ use tokio::sync::{OwnedSemaphorePermit, Semaphore};
 
 use crate::app::AppState;
 use crate::error::ApiError;
+
+/// Default of how much nicer the threads CPU jobs run on are than the process
+/// (`--cpu-job-nice`): at +10 a busy job thread gets about a tenth of the CPU of a
+/// runtime thread that wants it.
+pub const CPU_JOB_NICE: i32 = 10;
+
+static JOB_NICE: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(CPU_JOB_NICE);
+
+/// Sets how much nicer CPU-job threads started from now on are (0: as the process).
+pub fn set_cpu_job_nice(nice: i32) {
+    JOB_NICE.store(nice.clamp(0, 19), Ordering::Relaxed);
+}
+
+/// Lowers the calling thread's scheduling priority by [`CPU_JOB_NICE`] (to at most 19),
+/// once per thread.
+/// Called first thing by every job on tokio's blocking pool, which only CPU jobs use in
+/// this server; a thread's nice value is per thread on Linux. Failure is harmless (the
+/// job runs at the normal priority) and not reported.
+pub fn background_priority() {
+    thread_local!(static LOWERED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) });
+    LOWERED.with(|done| {
+        if !done.replace(true) {
+            #[cfg(target_os = "linux")]
+            {
+                let by = JOB_NICE.load(Ordering::Relaxed);
+                let tid = Some(rustix::thread::gettid());
+                if by > 0
+                    && let Ok(now) = rustix::process::getpriority_process(tid)
+                {
+                    let _ = rustix::process::setpriority_process(tid, (now + by).min(19));
+                }
+            }
+        }
+    });
+}
 
 /// The bounded pool of plan computations.
 #[derive(Debug)]
@@ -113,7 +152,11 @@ impl PlanTicket {
             .await
             .map_err(|e| ApiError::Internal(e.to_string()))?;
         let start = Instant::now();
-        let out = tokio::task::spawn_blocking(f).await?;
+        let out = tokio::task::spawn_blocking(move || {
+            background_priority();
+            f()
+        })
+        .await?;
         let ms = start.elapsed().as_millis() as u64;
         let old = self.pool.avg_ms.load(Ordering::Relaxed);
         self.pool
@@ -314,6 +357,26 @@ pub const DEFAULT_REQUEST_TIMEOUT: Duration = Duration::from_secs(90);
 mod tests {
     use super::*;
     use serde_json::json;
+
+    #[cfg(target_os = "linux")]
+    #[tokio::test]
+    async fn a_plan_runs_on_a_thread_of_lower_priority_than_the_runtime() {
+        let nice = || rustix::process::getpriority_process(Some(rustix::thread::gettid()));
+        let runtime = nice().expect("getpriority");
+        let pool = Arc::new(PlanPool::new(1, 0));
+        let job = pool
+            .admit()
+            .expect("admitted")
+            .run(nice)
+            .await
+            .expect("job");
+        assert_eq!(job.expect("getpriority"), (runtime + CPU_JOB_NICE).min(19));
+        assert_eq!(
+            nice().expect("getpriority"),
+            runtime,
+            "the runtime's own is unchanged"
+        );
+    }
 
     #[test]
     fn the_first_list_over_its_limit_is_named_by_its_pointer() {

@@ -330,7 +330,8 @@ impl Drop for CancelOnDrop {
     }
 }
 
-/// Builds the response document.
+/// Builds the response document: the map taken as current (the caller sets the lag of a
+/// live plan) and written by the current request's writer ([`crate::auth::writer`]).
 pub fn plan_out(
     mission_id: &MissionId,
     plan_id: &PlanId,
@@ -362,6 +363,9 @@ pub fn plan_out(
         obstacles: c.obstacles.clone(),
         warnings: c.warnings.clone(),
         observation_seq: c.observation_seq,
+        map_lag_batches: 0,
+        map_age_ms: 0.0,
+        written_by: crate::auth::writer(),
         start: StartOut::from(&inputs.start),
         created_at: format_rfc3339(now),
     }

@@ -321,6 +321,7 @@ mod tests {
             seed: 7,
             inputs: inputs.into(),
             body: String::new(),
+            written_by: "local".into(),
         }
     }
 

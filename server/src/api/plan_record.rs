@@ -73,6 +73,21 @@ pub struct PlanRecord {
     /// The live snapshot's observation batch number.
     #[serde(default)]
     pub observation_seq: i64,
+    /// Batches applied but not in the map used (records before it: 0).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub map_lag_batches: i64,
+    /// Age of the oldest of them, milliseconds.
+    #[serde(default, skip_serializing_if = "is_zero_f64")]
+    pub map_age_ms: f64,
+}
+
+fn is_zero(v: &i64) -> bool {
+    *v == 0
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's skip_serializing_if passes a reference
+fn is_zero_f64(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// One stored stack item.
@@ -138,6 +153,8 @@ impl PlanRecord {
             obstacles: o.obstacles.clone(),
             warnings: o.warnings.clone(),
             observation_seq: o.observation_seq,
+            map_lag_batches: o.map_lag_batches,
+            map_age_ms: o.map_age_ms,
         }
     }
 
@@ -176,6 +193,9 @@ impl PlanRecord {
             obstacles: self.obstacles,
             warnings: self.warnings,
             observation_seq: self.observation_seq,
+            map_lag_batches: self.map_lag_batches,
+            map_age_ms: self.map_age_ms,
+            written_by: row.written_by.clone(),
             start: StartOut::from(&Start::from(&self.start)),
             created_at: format_rfc3339(row.created_at_s),
         })
@@ -267,7 +287,12 @@ pub fn stored_plan_out(row: &PlanRow) -> Result<PlanOut, ApiError> {
             .map_err(|e| e.to_string())
             .and_then(|r| r.into_out(row))
     } else {
-        serde_json::from_value::<PlanOut>(v).map_err(|e| e.to_string())
+        serde_json::from_value::<PlanOut>(v)
+            .map(|o| PlanOut {
+                written_by: row.written_by.clone(),
+                ..o
+            })
+            .map_err(|e| e.to_string())
     };
     out.map_err(|e| ApiError::Internal(format!("plan {}: stored body: {e}", row.id)))
 }
@@ -333,6 +358,9 @@ mod tests {
                 message: "1 left out".into(),
             }],
             observation_seq: 9,
+            map_lag_batches: 1,
+            map_age_ms: 2.5,
+            written_by: "ops".into(),
             start: StartOut {
                 source: StartSource::Telemetry,
                 t: created_at_s - 0.5,
@@ -352,6 +380,7 @@ mod tests {
             seed: out.seed,
             inputs: "{}".into(),
             body: String::new(),
+            written_by: "ops".into(),
         };
         (row, out)
     }
@@ -370,6 +399,7 @@ mod tests {
             "created_at",
             "waypoints",
             "diff",
+            "written_by",
         ] {
             assert!(v.get(api_only).is_none(), "{api_only} in {v}");
         }

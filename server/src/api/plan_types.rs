@@ -153,6 +153,19 @@ pub struct PlanOut {
     /// Observation batches the plan saw: all batches up to this sequence number.
     #[serde(default)]
     pub observation_seq: i64,
+    /// Batches this replica had applied but the plan's risk map did not hold yet (0: the
+    /// map held every accepted batch). A plan uses the last published map instead of
+    /// waiting for the rebuild of a batch just posted, while that batch is at most
+    /// `max_map_age_ms` old; the map is always a whole snapshot (`observation_seq`).
+    #[serde(default)]
+    pub map_lag_batches: i64,
+    /// How long the oldest batch missing from the map had been applied when the plan read
+    /// it, milliseconds (0 when `map_lag_batches` is 0). A replay reports its own (0).
+    #[serde(default)]
+    pub map_age_ms: f64,
+    /// The name of the token that stored the plan, or `local` (no token).
+    #[serde(default = "crate::auth::local")]
+    pub written_by: String,
     /// The start.
     pub start: StartOut,
     /// When it was computed (RFC 3339).

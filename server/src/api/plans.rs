@@ -25,6 +25,7 @@ use crate::error::{ApiError, Problem};
 use crate::extract::ApiJson;
 use crate::store::plans::{InsertPlanError, PlanRow};
 use crate::time::now_s;
+use crate::timing::ServerTiming;
 use wire::ids::{MissionId, PlanId};
 
 pub use super::plan_types::*;
@@ -96,6 +97,14 @@ pub struct PlanBody {
     /// Prediction horizon, seconds, default 60.
     #[schema(exclusive_minimum = 0, maximum = 600)]
     pub horizon_s: Option<f64>,
+    /// Plan on the last published risk map while the oldest batch it lacks was accepted
+    /// at most this long ago, milliseconds (the answer's `map_lag_batches` and
+    /// `map_age_ms` say what it lacked); older, the plan waits for the map of every
+    /// accepted batch. 0: always wait (read your writes). Default: the server's
+    /// `--plan-map-max-age-ms` (1000).
+    #[schema(minimum = 0, maximum = 60000)]
+    #[serde(default, deserialize_with = "crate::extract::opt_integer")]
+    pub max_map_age_ms: Option<u64>,
 }
 
 /// Plan a revised waypoint stack.
@@ -120,8 +129,15 @@ async fn create_plan(
 ) -> Result<Response, ApiError> {
     // Refused at once (503) when the plan pool is full, before any work.
     let ticket = state.plans.admit()?;
-    let mission = super::missions::load(&state, &id).await?;
-    let latest = state.store.latest_plan_revision(&id).await?;
+    let mut timing = ServerTiming::start();
+    // The three reads a plan needs, at once (each is a round trip to the database).
+    let (mission, latest, telemetry) = tokio::join!(
+        super::missions::load(&state, &id),
+        state.store.latest_plan_revision(&id),
+        state.store.list_telemetry(&id, Some(1)),
+    );
+    let (mission, latest, telemetry) = (mission?, latest?, telemetry?);
+    timing.lap("read");
     let base_revision = body.base_revision.unwrap_or(0);
     if base_revision < 0 || base_revision > latest {
         return Err(ApiError::field(
@@ -180,8 +196,13 @@ async fn create_plan(
             format!("must be in [1, {MAX_DEADLINE_MS}]"),
         ));
     }
+    if body.max_map_age_ms.is_some_and(|a| a > MAX_DEADLINE_MS) {
+        return Err(ApiError::field(
+            "/max_map_age_ms",
+            format!("must be in [0, {MAX_DEADLINE_MS}]"),
+        ));
+    }
     let now = now_s();
-    let telemetry = state.store.list_telemetry(&id, Some(1)).await?;
     let start = match telemetry.last() {
         Some(t) => Start {
             from_telemetry: true,
@@ -189,7 +210,9 @@ async fn create_plan(
         },
         None => stack_start(&mission, &stack, current_index, now),
     };
-    let snap = state.live.snapshot(&state, &mission).await?;
+    let max_age = body.max_map_age_ms.map(std::time::Duration::from_millis);
+    let (snap, lag) = state.live.plan_snapshot(&state, &mission, max_age).await?;
+    timing.lap("snapshot");
     let inputs = PlanInputs {
         seed: body.seed.unwrap_or_else(new_seed),
         strategy: body.strategy.unwrap_or_default().into(),
@@ -210,17 +233,23 @@ async fn create_plan(
     let computed = ticket
         .run(move || compute(&m2, &in2, &snap, Some(flag)))
         .await??;
+    // The pool's queue and its hop to a worker thread and back: all but the computation.
+    timing.lap_split("pool", "compute", computed.compute_ms);
     let plan_id = PlanId(format!("{:016x}", rand::random::<u64>()));
     let revision = latest + 1;
-    let out = plan_out(
-        &id,
-        &plan_id,
-        revision,
-        base_revision,
-        &inputs,
-        &computed,
-        now,
-    );
+    let out = PlanOut {
+        map_lag_batches: lag.batches,
+        map_age_ms: lag.age_ms,
+        ..plan_out(
+            &id,
+            &plan_id,
+            revision,
+            base_revision,
+            &inputs,
+            &computed,
+            now,
+        )
+    };
     let row = PlanRow {
         id: plan_id.clone(),
         mission_id: id.clone(),
@@ -230,6 +259,7 @@ async fn create_plan(
         // The record names the observations (every batch up to the snapshot's).
         inputs: InputsRecord::of(&inputs).to_json()?,
         body: PlanRecord::from_out(&out).to_json()?,
+        written_by: out.written_by.clone(),
     };
     match state.store.insert_plan(&row).await {
         Ok(()) => {}
@@ -241,8 +271,10 @@ async fn create_plan(
         Err(InsertPlanError::NoMission) => return Err(ApiError::not_found("mission", id)),
         Err(InsertPlanError::Db(e)) => return Err(e.into()),
     }
+    timing.lap("store");
     tracing::info!(mission = %id, revision, outcome = %out.outcome, added = out.added, ms = out.compute_ms, "plan stored");
     let mut resp = (StatusCode::CREATED, axum::Json(out)).into_response();
+    crate::timing::insert(&mut resp, &timing);
     resp.headers_mut().insert(
         header::LOCATION,
         HeaderValue::from_str(&format!("/api/v1/missions/{id}/plans/{plan_id}"))
@@ -257,7 +289,7 @@ pub struct ReplayOut {
     /// The plan replayed.
     pub plan_id: String,
     /// True when the replay reproduced the stored plan exactly (everything but
-    /// `compute_ms` and `created_at`).
+    /// `compute_ms`, `created_at`, `map_lag_batches` and `map_age_ms`).
     pub identical: bool,
     /// Why a replay may differ: `deadline` (the plan was cut short by `deadline_ms`, so it
     /// is anytime), `stored_before_live_state` (its observations are replayed through
@@ -297,20 +329,26 @@ async fn replay_plan(
     let computed = ticket
         .run(move || compute(&mission, &in2, &snap, Some(flag)))
         .await??;
-    let replayed = plan_out(
-        &id,
-        &row.id,
-        row.revision,
-        stored.base_revision,
-        &inputs,
-        &computed,
-        row.created_at_s,
-    );
+    let replayed = PlanOut {
+        written_by: row.written_by.clone(),
+        ..plan_out(
+            &id,
+            &row.id,
+            row.revision,
+            stored.base_revision,
+            &inputs,
+            &computed,
+            row.created_at_s,
+        )
+    };
+    // What the plan's computation does not decide: its duration, and how far the live
+    // map it read lagged (a replay rebuilds exactly that map, so it lags by nothing).
     let strip = |p: &PlanOut| {
         let mut v = serde_json::to_value(p).unwrap_or_default();
         if let Some(o) = v.as_object_mut() {
-            o.remove("compute_ms");
-            o.remove("created_at");
+            for k in ["compute_ms", "created_at", "map_lag_batches", "map_age_ms"] {
+                o.remove(k);
+            }
         }
         v
     };

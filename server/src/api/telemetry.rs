@@ -14,6 +14,8 @@ use crate::error::{ApiError, Problem};
 use crate::extract::{ApiQuery, Body, MediaType, media_type, parse_json};
 use crate::store::InsertCounts;
 use crate::time::{WireTime, now_s};
+use crate::timing::ServerTiming;
+use axum::response::IntoResponse;
 use wire::ids::MissionId;
 use wire::telemetry::{
     AircraftTelemetry, AircraftTelemetryOut, ObservationBatch, ObservationOut, parse_observations,
@@ -68,20 +70,30 @@ async fn post_obstacles(
     ApiQuery(params): ApiQuery<SnapshotParams>,
     headers: HeaderMap,
     Body(body): Body,
-) -> Result<(StatusCode, axum::Json<IngestResult>), ApiError> {
+) -> Result<axum::response::Response, ApiError> {
+    let mut timing = ServerTiming::start();
     crate::extract::require_json(&headers)?;
     let value: serde_json::Value = parse_json(&body)?;
     crate::limits::check_items(&value, &state.settings.access.items)?;
     let received = now_s();
     let rows = parse_observations(value, params.time.map(|t| t.0), received)?;
+    timing.lap("parse");
     // The insert itself answers "no such mission" (a foreign key), in one round trip.
     let batch = state
         .store
         .insert_observations(&id, &rows, received)
         .await?
         .ok_or_else(|| ApiError::not_found("mission", &id))?;
+    timing.lap("store");
     state.live.apply(&state, &id, &batch).await;
-    Ok((StatusCode::ACCEPTED, axum::Json(batch.counts.into())))
+    timing.lap("live");
+    let mut resp = (
+        StatusCode::ACCEPTED,
+        axum::Json(IngestResult::from(batch.counts)),
+    )
+        .into_response();
+    crate::timing::insert(&mut resp, &timing);
+    Ok(resp)
 }
 
 /// `?obstacle_id=&after=` of the observation listing.

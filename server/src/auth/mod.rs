@@ -58,6 +58,11 @@ tokio::task_local! {
     pub static WRITER: Arc<str>;
 }
 
+/// [`LOCAL`] as an owned string (a serde default).
+pub fn local() -> String {
+    LOCAL.to_string()
+}
+
 /// The writer of the request being handled: its token's name, or `local` outside a
 /// request or without a token.
 pub fn writer() -> String {

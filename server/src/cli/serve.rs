@@ -62,6 +62,19 @@ pub struct ServeArgs {
     #[arg(long, env = "JINK_LIVE_MAX_MAPS", default_value_t = 32)]
     pub live_max_maps: usize,
 
+    /// A plan uses the mission's last published risk map while the oldest observation
+    /// batch it lacks was accepted at most this many milliseconds ago (its rebuild is then
+    /// under way), instead of waiting for it; 0 makes every plan wait (read your writes).
+    /// A plan request's `max_map_age_ms` overrides it.
+    #[arg(long, env = "JINK_PLAN_MAP_MAX_AGE_MS", default_value_t = crate::live::DEFAULT_PLAN_MAP_MAX_AGE_MS)]
+    pub plan_map_max_age_ms: u64,
+
+    /// How much lower the scheduling priority of plan and risk-map threads is than the
+    /// server's (nice increment, 0-19; Linux): ingest keeps precedence on a busy machine.
+    /// 0 runs them at the server's priority.
+    #[arg(long, env = "JINK_CPU_JOB_NICE", default_value_t = crate::limits::CPU_JOB_NICE)]
+    pub cpu_job_nice: i32,
+
     /// Log format on stderr. Levels come from `RUST_LOG` (default `info`).
     #[arg(long, env = "JINK_LOG_FORMAT", value_enum, default_value = "text")]
     pub log_format: LogFormat,
@@ -284,6 +297,7 @@ pub fn run(args: ServeArgs) -> ExitCode {
                 }
             }
         }
+        crate::limits::set_cpu_job_nice(args.cpu_job_nice);
         let state = AppState::new(
             store,
             Settings {
@@ -293,6 +307,7 @@ pub fn run(args: ServeArgs) -> ExitCode {
                     max_missions: args.live_max_missions.max(1),
                     map_idle: std::time::Duration::from_secs(args.live_map_idle_s.max(1)),
                     max_maps: args.live_max_maps.max(1),
+                    plan_map_max_age: std::time::Duration::from_millis(args.plan_map_max_age_ms),
                 },
                 access,
             },

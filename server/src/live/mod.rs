@@ -21,10 +21,16 @@
 //!   batch at a time); a snapshot holds an `Arc` of the predictor as of that `seq`. The
 //!   writer feeds through `Arc::make_mut`, so a batch arriving while a snapshot holds the
 //!   predictor copies it once (the cost `plan_load` measures).
-//! - **Read your writes**: a read first brings the snapshot up to the batches applied
-//!   when it arrived (waiting for a map build in flight, a few ms at most); on PostgreSQL
-//!   it first catches up with the store's newest batch number (one indexed read), so a
-//!   replica never plans on older data than another replica acknowledged.
+//! - **Read your writes** for `GET .../risk` and `GET .../obstacles`: a read first brings
+//!   the snapshot up to the batches applied when it arrived (waiting for a map build in
+//!   flight); on PostgreSQL it first catches up with the store's newest batch number (one
+//!   indexed read), so a replica never shows older data than another replica acknowledged.
+//! - **Plans take the last published map** ([`MissionLive::plan_snapshot`]) when it lacks
+//!   only batches applied within the plan's `max_map_age` (default
+//!   [`LiveConfig::plan_map_max_age`]), instead of waiting for the rebuild those batches
+//!   started; the plan reports the map's [`MapLag`] (batches behind, age). The snapshot
+//!   is still a whole one (a published `seq`, its predictor and its map together), so a
+//!   plan never mixes batches, and replay rebuilds it from the `seq` the plan stored.
 //! - **Rebuilt on first use** from the store (all batches in feeding order), so a restart
 //!   loses nothing; **evicted** after `idle` without use, and the least recently used
 //!   beyond `max_missions`, so memory stays bounded (maps, the large part, go earlier: see
@@ -32,7 +38,7 @@
 //! - **Replicas** (PostgreSQL): [`notify`] listens to the batches other replicas commit
 //!   and catches the cached missions up.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -58,6 +64,24 @@ const SPARE_MAPS: usize = 2;
 /// Feeding more rows than this at once runs on the CPU pool instead of the runtime.
 const INLINE_FEED_ROWS: usize = 256;
 
+/// Default of [`LiveConfig::plan_map_max_age`], milliseconds (five batches at 5 Hz).
+pub const DEFAULT_PLAN_MAP_MAX_AGE_MS: u64 = 1000;
+
+/// Batches applied but not yet in the published map, remembered with their time of
+/// application (for [`MapLag::age_ms`]); beyond this many, the oldest are merged (a map
+/// that far behind is rebuilt before a plan uses it anyway).
+const PENDING_MAX: usize = 64;
+
+/// How far the map a plan used lags behind the batches the replica had applied.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct MapLag {
+    /// Batches applied but not in the map (0: the map holds every applied batch).
+    pub batches: i64,
+    /// How long the oldest of those batches had been applied, milliseconds (0 when
+    /// `batches` is 0).
+    pub age_ms: f64,
+}
+
 /// Limits of the live state.
 #[derive(Debug, Clone, Copy)]
 pub struct LiveConfig {
@@ -70,6 +94,10 @@ pub struct LiveConfig {
     pub map_idle: Duration,
     /// At most this many missions keep a risk map; the least recently read goes first.
     pub max_maps: usize,
+    /// A plan takes the last published map while the oldest batch missing from it was
+    /// applied at most this long ago (a rebuild is then under way); beyond it, the plan
+    /// waits for the map of every applied batch. A request's `max_map_age_ms` overrides it.
+    pub plan_map_max_age: Duration,
 }
 
 impl Default for LiveConfig {
@@ -79,6 +107,7 @@ impl Default for LiveConfig {
             max_missions: 1000,
             map_idle: Duration::from_secs(10),
             max_maps: 32,
+            plan_map_max_age: Duration::from_millis(DEFAULT_PLAN_MAP_MAX_AGE_MS),
         }
     }
 }
@@ -120,6 +149,8 @@ pub struct MissionLive {
     last_used: Mutex<Instant>,
     /// Last read of the map (None: not read since it was dropped).
     map_used: Mutex<Option<Instant>>,
+    /// Batches applied after the published snapshot's, oldest first: (seq, applied at).
+    pending: Mutex<VecDeque<(i64, Instant)>>,
 }
 
 impl std::fmt::Debug for MissionLive {
@@ -146,7 +177,50 @@ impl MissionLive {
             build: tokio::sync::Mutex::new(()),
             last_used: Mutex::new(Instant::now()),
             map_used: Mutex::new(None),
+            pending: Mutex::new(VecDeque::new()),
         }
+    }
+
+    /// Remembers that batches through `seq` were applied now.
+    fn note_applied(&self, seq: i64) {
+        let mut p = lock(&self.pending);
+        if p.len() >= PENDING_MAX {
+            // Merge the second entry into the third, keeping the older time: ages are
+            // then overestimated, never under.
+            if let Some((_, t)) = p.remove(1)
+                && let Some(next) = p.get_mut(1)
+            {
+                next.1 = t;
+            }
+        }
+        p.push_back((seq, Instant::now()));
+    }
+
+    /// How far `snap` lags behind the batches applied so far.
+    fn lag(&self, snap: &Snapshot) -> MapLag {
+        let applied = self.applied.load(Ordering::Acquire);
+        if snap.seq >= applied {
+            return MapLag::default();
+        }
+        let oldest = lock(&self.pending)
+            .iter()
+            .find(|(seq, _)| *seq > snap.seq)
+            .map(|(_, at)| *at);
+        MapLag {
+            batches: applied - snap.seq,
+            age_ms: oldest.map_or(f64::INFINITY, |at| at.elapsed().as_secs_f64() * 1e3),
+        }
+    }
+
+    /// Publishes `snap` and forgets the pending batches it holds; returns the replaced one.
+    fn publish(&self, snap: Arc<Snapshot>) -> Arc<Snapshot> {
+        let seq = snap.seq;
+        let old = std::mem::replace(&mut *lock(&self.published), snap);
+        let mut p = lock(&self.pending);
+        while p.front().is_some_and(|(s, _)| *s <= seq) {
+            p.pop_front();
+        }
+        old
     }
 
     /// True when the map was read within `map_idle` (batches then rebuild it at once).
@@ -213,6 +287,7 @@ impl MissionLive {
             }
             w.applied = target;
             self.applied.store(target, Ordering::Release);
+            self.note_applied(target);
         }
         self.loaded.store(true, Ordering::Release);
         Ok(true)
@@ -237,6 +312,7 @@ impl MissionLive {
             );
             w.applied = batch.seq;
             self.applied.store(batch.seq, Ordering::Release);
+            self.note_applied(batch.seq);
             return Ok(());
         }
         drop(w);
@@ -255,6 +331,47 @@ impl MissionLive {
         *lock(&self.map_used) = Some(now);
         self.current(state).await?;
         self.build_current(state).await
+    }
+
+    /// The snapshot a plan reads: the last published one when the batches it lacks were
+    /// all applied within `max_age` (their rebuild is then started if none is under way,
+    /// and the plan does not wait for it), else the snapshot of every batch applied so far
+    /// (as [`Self::snapshot`]). Returned with how far it lags.
+    ///
+    /// # Errors
+    /// Database failures while catching up; a job panic.
+    pub async fn plan_snapshot(
+        self: &Arc<Self>,
+        state: &AppState,
+        max_age: Duration,
+    ) -> Result<(Arc<Snapshot>, MapLag), ApiError> {
+        let now = Instant::now();
+        *lock(&self.last_used) = now;
+        *lock(&self.map_used) = Some(now);
+        self.current(state).await?;
+        let cur = self.published();
+        if cur.seq >= 0 {
+            let lag = self.lag(&cur);
+            if lag.batches == 0 {
+                return Ok((cur, lag));
+            }
+            if lag.age_ms <= max_age.as_secs_f64() * 1e3 {
+                if self.build.try_lock().is_ok() {
+                    // No build under way (the map was not in use when the batches came).
+                    spawn_build(state, self.clone());
+                }
+                return Ok((cur, lag));
+            }
+        }
+        drop(cur);
+        let snap = self.build_current(state).await?;
+        let mut lag = self.lag(&snap);
+        if !lag.age_ms.is_finite() {
+            // Batches applied during the build whose time was not kept: report them as
+            // just applied rather than as an infinite age on the wire.
+            lag.age_ms = 0.0;
+        }
+        Ok((snap, lag))
     }
 
     /// The predictor with every batch applied so far (read your writes), without a map.
@@ -307,7 +424,7 @@ impl MissionLive {
                 .run_cpu(move || Snapshot::build_reusing(&mission, seq, predictor, spare))
                 .await?,
         );
-        let old = std::mem::replace(&mut *lock(&self.published), snap.clone());
+        let old = self.publish(snap.clone());
         state.live.recycle(old);
         Ok(snap)
     }
@@ -386,6 +503,25 @@ impl LiveStates {
         let snap = live.snapshot(state).await?;
         self.cap_maps(&mission.id);
         Ok(snap)
+    }
+
+    /// The snapshot a plan of `mission` reads (see [`MissionLive::plan_snapshot`]);
+    /// `max_age` defaults to [`LiveConfig::plan_map_max_age`].
+    ///
+    /// # Errors
+    /// Database failures; 404 when the mission was deleted meanwhile.
+    pub async fn plan_snapshot(
+        &self,
+        state: &AppState,
+        mission: &Mission,
+        max_age: Option<Duration>,
+    ) -> Result<(Arc<Snapshot>, MapLag), ApiError> {
+        let live = self.entry(mission);
+        let out = live
+            .plan_snapshot(state, max_age.unwrap_or(self.cfg.plan_map_max_age))
+            .await?;
+        self.cap_maps(&mission.id);
+        Ok(out)
     }
 
     /// The predictor of `mission` with every batch applied so far, without building a map
@@ -514,13 +650,18 @@ impl LiveStates {
         if !live.map_in_use(Instant::now(), self.cfg.map_idle) {
             return;
         }
-        let state = state.clone();
-        tokio::spawn(async move {
-            if let Err(e) = live.build_current(&state).await {
-                tracing::warn!(mission = %live.mission.id, error = %e, "snapshot build failed");
-            }
-        });
+        spawn_build(state, live);
     }
+}
+
+/// Publishes the snapshot of `live`'s applied batches in the background.
+fn spawn_build(state: &AppState, live: Arc<MissionLive>) {
+    let state = state.clone();
+    tokio::spawn(async move {
+        if let Err(e) = live.build_current(&state).await {
+            tracing::warn!(mission = %live.mission.id, error = %e, "snapshot build failed");
+        }
+    });
 }
 
 #[cfg(test)]

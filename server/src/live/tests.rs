@@ -83,3 +83,69 @@ async fn maps_are_built_only_for_map_reads_and_at_most_max_maps_are_kept() {
     assert_eq!(again.map_ids, first.map_ids);
     assert_eq!(cells(&again), cells(&first));
 }
+
+/// Batch 51 of mission "a": a new obstacle, one tick after the fixture's last row.
+async fn one_more_batch(state: &AppState, m: &Mission) -> StoredBatch {
+    let t = 1_700_000_000.0 + 0.2 * 50.0;
+    let rows = [ObservationRow {
+        obstacle_id: "3".into(),
+        t_s: t,
+        lat_deg: 38.147,
+        lon_deg: -76.427,
+        alt_msl_m: 60.0,
+        radius_m: 20.0,
+    }];
+    state
+        .store
+        .insert_observations(&m.id, &rows, t)
+        .await
+        .expect("insert")
+        .expect("mission")
+}
+
+#[tokio::test]
+async fn a_plan_takes_the_published_snapshot_while_a_batch_is_young_and_waits_once_it_is_old() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (state, a, _) = two_missions(&dir).await;
+    let live = state.live.entry(&a);
+    let (first, lag) = live
+        .plan_snapshot(&state, Duration::from_secs(1))
+        .await
+        .expect("snapshot");
+    assert_eq!((first.seq, lag), (50, MapLag::default()));
+    // A batch applied without its background rebuild (as when it lands between a plan's
+    // reads): a plan within the age bound takes the published snapshot, whole.
+    let batch = one_more_batch(&state, &a).await;
+    live.apply(&state, &batch).await.expect("apply");
+    let (young, lag) = live
+        .plan_snapshot(&state, Duration::from_secs(1))
+        .await
+        .expect("snapshot");
+    assert_eq!((young.seq, lag.batches), (50, 1));
+    assert!(lag.age_ms >= 0.0 && lag.age_ms < 1000.0, "{lag:?}");
+    assert!(Arc::ptr_eq(&young, &first), "the same published snapshot");
+    assert_eq!(young.anchor_t_s, first.anchor_t_s);
+    // Beyond the bound (0: read your writes) the plan waits for the map of batch 51.
+    let (current, lag) = live
+        .plan_snapshot(&state, Duration::ZERO)
+        .await
+        .expect("snapshot");
+    assert_eq!((current.seq, lag), (51, MapLag::default()));
+    assert!(current.anchor_t_s > first.anchor_t_s);
+    assert_eq!(current.map_ids, ["0", "1", "2", "3"]);
+    assert_eq!(young.map_ids, ["0", "1", "2"]);
+    // Its predictor and map hold batch 51 and nothing is mixed: the same as a rebuild of
+    // batches 1..=51 from the store.
+    let rows: Vec<ObservationRow> = state
+        .store
+        .list_observations_through(&a.id, -1, 51)
+        .await
+        .expect("rows")
+        .into_iter()
+        .map(|(_, r)| r)
+        .collect();
+    let mut p = Predictor::new(snapshot::predictor_config());
+    snapshot::feed(&mut p, &a.frame(), &rows);
+    let rebuilt = Snapshot::build(&a, 51, Arc::new(p));
+    assert_eq!(cells(&current), cells(&rebuilt));
+}

@@ -24,6 +24,8 @@ pub struct PlanRow {
     pub inputs: String,
     /// The answer: a plan record (`api::plan_record`), JSON; older rows hold the answer itself.
     pub body: String,
+    /// The name of the token that stored it, or `local`.
+    pub written_by: String,
 }
 
 /// Why a plan could not be stored.
@@ -41,12 +43,14 @@ pub enum InsertPlanError {
 }
 
 impl Store {
-    /// The newest revision of a mission's plans (0 when none).
+    /// The newest revision of a mission's plans (0 when none). Read from the read pool (on
+    /// SQLite it does not queue behind the single writer): a plan committed since is
+    /// caught by [`Store::insert_plan`]'s unique revision (409), as before.
     #[tracing::instrument(skip(self))]
     pub async fn latest_plan_revision(&self, mission_id: &MissionId) -> Result<i64, sqlx::Error> {
         let row = sqlx::query("SELECT COALESCE(MAX(revision), 0) FROM plans WHERE mission_id = $1")
             .bind(mission_id.to_string())
-            .fetch_one(&self.write)
+            .fetch_one(&self.read)
             .await?;
         row.try_get::<i64, _>(0)
     }
@@ -64,7 +68,7 @@ impl Store {
         .bind(row.seed.to_string())
         .bind(row.inputs.clone())
         .bind(row.body.clone())
-        .bind(crate::auth::writer())
+        .bind(row.written_by.clone())
         .execute(&self.write)
         .await;
         match r {
@@ -109,10 +113,10 @@ impl Store {
     ) -> Result<Option<PlanRow>, sqlx::Error> {
         let sql = match cond {
             "id = $2" => {
-                "SELECT id, mission_id, revision, created_at_us, seed, inputs, body FROM plans WHERE mission_id = $1 AND id = $2"
+                "SELECT id, mission_id, revision, created_at_us, seed, inputs, body, written_by FROM plans WHERE mission_id = $1 AND id = $2"
             }
             _ => {
-                "SELECT id, mission_id, revision, created_at_us, seed, inputs, body FROM plans WHERE mission_id = $1 AND revision = $2"
+                "SELECT id, mission_id, revision, created_at_us, seed, inputs, body, written_by FROM plans WHERE mission_id = $1 AND revision = $2"
             }
         };
         let q = sqlx::query(sql).bind(mission_id.to_string());
@@ -120,7 +124,7 @@ impl Store {
             PlanKey::Id(id) => q.bind(id.to_string()),
             PlanKey::Revision(r) => q.bind(r),
         };
-        let row = q.fetch_optional(&self.write).await?;
+        let row = q.fetch_optional(&self.read).await?;
         row.map(|r| {
             Ok(PlanRow {
                 id: PlanId(r.try_get(0)?),
@@ -133,6 +137,7 @@ impl Store {
                     .map_err(|e| sqlx::Error::Decode(Box::new(e)))?,
                 inputs: r.try_get(5)?,
                 body: r.try_get(6)?,
+                written_by: r.try_get(7)?,
             })
         })
         .transpose()

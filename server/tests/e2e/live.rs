@@ -15,6 +15,7 @@ both_stores!(
     a_plan_lists_the_obstacles_it_used_with_the_stages_the_operator_sees,
     client_stamped_obstacles_with_receipt_stamped_telemetry_warn_of_the_clock_mismatch,
     a_plan_replays_identically_after_later_batches_and_a_restart,
+    a_plan_right_after_a_batch_names_what_its_map_lacked_and_replays_identically,
 );
 
 const T0: f64 = 1_700_000_000.0;
@@ -121,6 +122,62 @@ async fn a_plan_replays_identically_after_later_batches_and_a_restart(mut app: A
     let q = plan(&app, &id, json!({"seed": 11, "current_index": 1})).await;
     assert_eq!(q["observation_seq"], 5);
     assert_eq!(q["obstacles"].as_array().unwrap().len(), 3);
+}
+
+/// A plan asked right after a batch may use the map published before it (its rebuild is
+/// under way): the answer says how many batches the map lacked, the map is one whole
+/// snapshot (replay rebuilds it exactly), and `max_map_age_ms: 0` waits for every batch.
+async fn a_plan_right_after_a_batch_names_what_its_map_lacked_and_replays_identically(app: App) {
+    let id = webster_flight(&app, 3).await;
+    // The first plan builds the map (nothing published yet) and marks it in use.
+    let p = plan(&app, &id, json!({"seed": 4, "current_index": 1})).await;
+    assert_eq!(
+        (p["observation_seq"].as_i64(), p["map_lag_batches"].as_i64()),
+        (Some(3), Some(0))
+    );
+    assert_eq!(p["map_age_ms"], 0.0);
+    for k in 4..=6 {
+        let t = T0 + f64::from(k);
+        app.post_observations(
+            &id,
+            json!([{"obstacle_id": "0", "t": t, "lat": 38.1455, "lon": -76.4245 - 0.00005 * (t - T0),
+                    "alt_msl_m": 60.0, "radius_m": 20.0}]),
+        )
+        .await;
+        let body = json!({"seed": 4, "current_index": 1, "base_revision": k - 3});
+        let q = plan(&app, &id, body).await;
+        let (seq, lag) = (
+            q["observation_seq"].as_i64().unwrap(),
+            q["map_lag_batches"].as_i64().unwrap(),
+        );
+        // The map's batches and those it lacked are every batch accepted.
+        assert_eq!(seq + lag, i64::from(k), "{q}");
+        let age = q["map_age_ms"].as_f64().unwrap();
+        assert!((0.0..=1000.0).contains(&age), "{q}");
+        assert_eq!(lag == 0, age == 0.0, "{q}");
+        let pid = q["plan_id"].as_str().unwrap();
+        let r = app
+            .post_json(
+                &format!("/api/v1/missions/{id}/plans/{pid}/replay"),
+                &json!({}),
+            )
+            .await;
+        let v: Value = r.json().await.unwrap();
+        assert_eq!(v["identical"], true, "{v}");
+        assert_eq!(v["replayed"]["observation_seq"], seq);
+    }
+    app.post_observations(
+        &id,
+        json!([{"obstacle_id": "1", "t": T0 + 7.0, "lat": 38.149, "lon": -76.430,
+                "alt_msl_m": 80.0, "radius_m": 15.0}]),
+    )
+    .await;
+    let body = json!({"seed": 4, "current_index": 1, "base_revision": 4, "max_map_age_ms": 0});
+    let q = plan(&app, &id, body).await;
+    assert_eq!(
+        (q["observation_seq"].as_i64(), q["map_lag_batches"].as_i64()),
+        (Some(7), Some(0))
+    );
 }
 
 /// Two `jink serve` on one PostgreSQL database: observations posted to A reach B's live

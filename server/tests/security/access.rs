@@ -135,6 +135,33 @@ async fn a_read_token_cannot_post_and_nothing_is_stored() {
         .get_json(&format!("/api/v1/missions/{id}"), Some(&read))
         .await;
     assert_eq!(mission["written_by"], "ops", "{mission}");
+    // A plan names its writer in the answer, when read back and when replayed.
+    let r = s
+        .post(
+            &format!("/api/v1/missions/{id}/plan"),
+            &json!({"seed": 1}),
+            Some(&write),
+        )
+        .await;
+    assert_eq!(r.status(), 201);
+    let plan: Value = r.json().await.unwrap();
+    assert_eq!(plan["written_by"], "gcs-1", "{plan}");
+    let pid = plan["plan_id"].as_str().unwrap();
+    let stored: Value = s
+        .get_json(&format!("/api/v1/missions/{id}/plans/{pid}"), Some(&read))
+        .await;
+    assert_eq!(stored["written_by"], "gcs-1", "{stored}");
+    let r = s
+        .post(
+            &format!("/api/v1/missions/{id}/plans/{pid}/replay"),
+            &json!({}),
+            Some(&write),
+        )
+        .await;
+    assert_eq!(r.status(), 200);
+    let replay: Value = r.json().await.unwrap();
+    assert_eq!(replay["replayed"]["written_by"], "gcs-1", "{replay}");
+    assert_eq!(replay["identical"], true, "{replay}");
 }
 
 #[tokio::test]
@@ -155,6 +182,12 @@ async fn without_a_token_on_loopback_the_writer_is_local() {
     assert_eq!(listed[0]["written_by"], "local", "{listed}");
     let mission: Value = s.get_json(&format!("/api/v1/missions/{id}"), None).await;
     assert_eq!(mission["written_by"], "local", "{mission}");
+    let r = s
+        .post(&format!("/api/v1/missions/{id}/plan"), &json!({}), None)
+        .await;
+    assert_eq!(r.status(), 201);
+    let plan: Value = r.json().await.unwrap();
+    assert_eq!(plan["written_by"], "local", "{plan}");
 }
 
 #[tokio::test]
