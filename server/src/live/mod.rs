@@ -64,8 +64,11 @@ const SPARE_MAPS: usize = 2;
 /// Feeding more rows than this at once runs on the CPU pool instead of the runtime.
 const INLINE_FEED_ROWS: usize = 256;
 
-/// Default of [`LiveConfig::plan_map_max_age`], milliseconds (five batches at 5 Hz).
-pub const DEFAULT_PLAN_MAP_MAX_AGE_MS: u64 = 1000;
+/// Default of [`LiveConfig::plan_map_max_age`], milliseconds: 0, every plan waits for the
+/// map of every accepted batch (read your writes). Planning on an older map did not shorten
+/// the round trip on two cores (the rebuild then runs beside the plan) and plans on older
+/// data, so it is opt-in (README, "Live mission state").
+pub const DEFAULT_PLAN_MAP_MAX_AGE_MS: u64 = 0;
 
 /// Batches applied but not yet in the published map, remembered with their time of
 /// application (for [`MapLag::age_ms`]); beyond this many, the oldest are merged (a map
