@@ -39,7 +39,7 @@ impl Jink {
     pub fn new(args: &[&str]) -> Jink {
         let dir = tempfile::tempdir().unwrap();
         let db_url = format!("sqlite://{}", dir.path().join("jink.sqlite").display());
-        let j = Jink {
+        Jink {
             base: String::new(),
             db_url,
             client: reqwest::Client::builder()
@@ -49,8 +49,7 @@ impl Jink {
             dir,
             args: args.iter().map(|s| s.to_string()).collect(),
             child: None,
-        };
-        j
+        }
     }
 
     /// Starts a prepared [`Self::new`] on any free port.
