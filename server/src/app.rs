@@ -91,6 +91,8 @@ pub struct AppState {
     pub(crate) plans: Arc<crate::limits::PlanPool>,
     /// Token cache and per-token rate buckets.
     pub(crate) guard: Arc<crate::auth::Guard>,
+    /// Interop sessions and the upstream link's status (issue 15).
+    pub(crate) interop: Arc<crate::interop::InteropState>,
 }
 
 impl AppState {
@@ -112,6 +114,7 @@ impl AppState {
                 settings.access.rates,
             )),
             settings: Arc::new(settings),
+            interop: Arc::default(),
         }
     }
 

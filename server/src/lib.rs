@@ -17,6 +17,7 @@ mod auth;
 mod cli;
 mod error;
 mod extract;
+mod interop;
 mod limits;
 // Dead items in here (`MissionLive::mission`, `LiveStates::len`/`is_empty`,
 // `PlanView::variability`, `SERVICE_CELL_M`, `SERVICE_MARGIN_M`, `SLICE_DT_S`,

@@ -2,16 +2,21 @@
 //! types: 2017/2018 JSON (`/api/missions`, `/api/obstacles`, form-encoded telemetry) and
 //! 2019+ protobuf-JSON (lowerCamelCase, or snake_case as the server also accepted).
 //!
+//! The other direction, [`render_mission_2018`], [`render_mission_2019`],
+//! [`render_obstacles_2018`], [`render_telemetry_2019`] and [`render_telemetry_2018_form`],
+//! writes jink's values back in the judges' formats, for the interop-compatible surface
+//! (`/api/missions`, `/api/obstacles`) and for forwarding telemetry to the judges' server.
+//!
 //! # Units
-//! Interop data is in feet MSL and knots; everything leaving this module is metres and m/s.
-//! Unknown extra fields are ignored.
+//! Interop data is in feet MSL and knots; everything parsed from this module is metres and
+//! m/s, everything rendered by it feet and knots again. Unknown extra fields are ignored.
 
 use serde::Deserialize;
 use serde_json::Value;
 
 use crate::error::{WireError, from_value};
 use crate::mission::{
-    FieldNames, FlyZone, Home, LatLon, MissionInput, MovingObstacleInfo, SourceFormat,
+    FieldNames, FlyZone, Home, LatLon, Mission, MissionInput, MovingObstacleInfo, SourceFormat,
     StationaryObstacle, Waypoint,
 };
 
@@ -494,6 +499,142 @@ pub struct Telemetry2019 {
     pub heading: f64,
 }
 
+// ---- rendering: jink's values back in the judges' formats (feet, knots) ---------------
+
+/// Metres to feet.
+pub fn m_to_ft(v: f64) -> f64 {
+    v / M_PER_FT
+}
+
+fn pos(lat: f64, lon: f64) -> Value {
+    serde_json::json!({ "latitude": lat, "longitude": lon })
+}
+
+/// A mission as the 2019+ server's `GET /api/missions/{id}` served it (protobuf-JSON,
+/// lowerCamelCase, feet MSL), with `id` as its interop id. The home is the lost-comms
+/// position (what a 2019 mission's home was read from). What jink does not keep (ODLC
+/// positions, air drop, map) is left out, as protobuf-JSON leaves out unset fields.
+pub fn render_mission_2019(m: &Mission, id: i64) -> Value {
+    let c = &m.content;
+    serde_json::json!({
+        "id": id,
+        "lostCommsPos": pos(m.home.lat, m.home.lon),
+        "flyZones": c.fly_zones.iter().map(|z| serde_json::json!({
+            "altitudeMin": m_to_ft(z.alt_min_msl_m),
+            "altitudeMax": m_to_ft(z.alt_max_msl_m),
+            "boundaryPoints": z.boundary.iter().map(|p| pos(p.lat, p.lon)).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+        "waypoints": c.waypoints.iter().map(|w| serde_json::json!({
+            "latitude": w.lat, "longitude": w.lon, "altitude": m_to_ft(w.alt_msl_m),
+        })).collect::<Vec<_>>(),
+        "searchGridPoints": c.search_grid.iter().map(|p| pos(p.lat, p.lon)).collect::<Vec<_>>(),
+        "stationaryObstacles": c.stationary_obstacles.iter().map(|o| serde_json::json!({
+            "latitude": o.lat, "longitude": o.lon,
+            "radius": m_to_ft(o.radius_m), "height": m_to_ft(o.top_msl_m),
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// Points with 1-based `order` fields, as 2017/2018 lists carried them.
+fn ordered(points: impl Iterator<Item = (f64, f64, Option<f64>)>) -> Vec<Value> {
+    points
+        .enumerate()
+        .map(|(i, (lat, lon, alt_m))| {
+            let mut v = serde_json::json!({ "latitude": lat, "longitude": lon, "order": i + 1 });
+            if let Some(a) = alt_m {
+                v["altitude_msl"] = Value::from(m_to_ft(a));
+            }
+            v
+        })
+        .collect()
+}
+
+/// A mission as the 2017/2018 server's `GET /api/missions/{id}` served it (feet MSL,
+/// `order` fields), with `id` as its interop id, `active: true`, and the cylinders and
+/// moving-obstacle announcements the 2018 mission list carried (`stationary_obstacles`,
+/// `moving_obstacles` with `sphere_radius` in feet and `speed_avg` in knots).
+pub fn render_mission_2018(m: &Mission, id: i64) -> Value {
+    let c = &m.content;
+    serde_json::json!({
+        "id": id,
+        "active": true,
+        "home_pos": pos(m.home.lat, m.home.lon),
+        "fly_zones": c.fly_zones.iter().map(|z| serde_json::json!({
+            "altitude_msl_min": m_to_ft(z.alt_min_msl_m),
+            "altitude_msl_max": m_to_ft(z.alt_max_msl_m),
+            "boundary_pts": ordered(z.boundary.iter().map(|p| (p.lat, p.lon, None))),
+        })).collect::<Vec<_>>(),
+        "mission_waypoints": ordered(c.waypoints.iter().map(|w| (w.lat, w.lon, Some(w.alt_msl_m)))),
+        "search_grid_points": ordered(c.search_grid.iter().map(|p| (p.lat, p.lon, None))),
+        "stationary_obstacles": c.stationary_obstacles.iter().map(|o| serde_json::json!({
+            "latitude": o.lat, "longitude": o.lon,
+            "cylinder_radius": m_to_ft(o.radius_m), "cylinder_height": m_to_ft(o.top_msl_m),
+        })).collect::<Vec<_>>(),
+        "moving_obstacles": c.moving_obstacles.iter().map(|o| {
+            let mut v = serde_json::json!({ "sphere_radius": m_to_ft(o.radius_m) });
+            if let Some(s) = o.speed_avg_mps {
+                v["speed_avg"] = Value::from(s / MPS_PER_KT);
+            }
+            v
+        }).collect::<Vec<_>>(),
+    })
+}
+
+/// A moving obstacle's position for [`render_obstacles_2018`] (metres, as jink keeps it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MovingPosition {
+    /// Latitude, degrees.
+    pub lat: f64,
+    /// Longitude, degrees.
+    pub lon: f64,
+    /// Centre altitude, metres MSL.
+    pub alt_msl_m: f64,
+    /// Sphere radius, metres.
+    pub radius_m: f64,
+}
+
+/// A 2017/2018 `GET /api/obstacles` answer: `moving` in the order given (their index is
+/// their id, as the judges' list was), then `stationary` (the mission's cylinders), feet.
+pub fn render_obstacles_2018(
+    moving: &[MovingPosition],
+    stationary: &[StationaryObstacle],
+) -> Value {
+    serde_json::json!({
+        "moving_obstacles": moving.iter().map(|o| serde_json::json!({
+            "latitude": o.lat, "longitude": o.lon,
+            "altitude_msl": m_to_ft(o.alt_msl_m), "sphere_radius": m_to_ft(o.radius_m),
+        })).collect::<Vec<_>>(),
+        "stationary_obstacles": stationary.iter().map(|o| serde_json::json!({
+            "latitude": o.lat, "longitude": o.lon,
+            "cylinder_radius": m_to_ft(o.radius_m), "cylinder_height": m_to_ft(o.top_msl_m),
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// Aircraft telemetry as a 2019+ `POST /api/telemetry` body: `latitude`, `longitude`,
+/// `altitude` (feet MSL), `heading` (degrees). The sample's time is not sent (the judges'
+/// server stamps telemetry on receipt).
+pub fn render_telemetry_2019(s: &crate::telemetry::AircraftSample) -> Value {
+    serde_json::json!({
+        "latitude": s.lat_deg,
+        "longitude": s.lon_deg,
+        "altitude": m_to_ft(s.alt_msl_m),
+        "heading": s.heading_deg,
+    })
+}
+
+/// Aircraft telemetry as a 2017/2018 form-encoded `POST /api/telemetry` body: `latitude`,
+/// `longitude`, `altitude_msl` (feet), `uas_heading` (degrees).
+pub fn render_telemetry_2018_form(s: &crate::telemetry::AircraftSample) -> String {
+    let fields = [
+        ("latitude", s.lat_deg),
+        ("longitude", s.lon_deg),
+        ("altitude_msl", m_to_ft(s.alt_msl_m)),
+        ("uas_heading", s.heading_deg),
+    ];
+    serde_urlencoded::to_string(fields).unwrap_or_default()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -558,5 +699,167 @@ mod tests {
         let lats: Vec<f64> = m.fly_zones[0].boundary.iter().map(|p| p.lat).collect();
         assert_eq!(lats, vec![1.0, 2.0, 3.0]);
         assert_eq!(names.fly_zone_points_src[0], vec![1, 2, 0]);
+    }
+
+    fn read(v: Value) -> Mission {
+        crate::domain::read_mission_text(&v.to_string(), "m").unwrap()
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() <= 1e-9 * a.abs().max(1.0)
+    }
+
+    /// Every number of `got` equals the one at the same place in `want` (to 1e-9), for
+    /// every key of `want` (keys of `got` that `want` lacks are ignored).
+    fn assert_subset(want: &Value, got: &Value, at: &str) {
+        match (want, got) {
+            (Value::Object(w), Value::Object(g)) => {
+                for (k, wv) in w {
+                    let gv = g
+                        .get(k)
+                        .unwrap_or_else(|| panic!("{at}/{k} missing in {got}"));
+                    assert_subset(wv, gv, &format!("{at}/{k}"));
+                }
+            }
+            (Value::Array(w), Value::Array(g)) => {
+                assert_eq!(w.len(), g.len(), "{at}: lengths differ");
+                for (i, (wv, gv)) in w.iter().zip(g).enumerate() {
+                    assert_subset(wv, gv, &format!("{at}/{i}"));
+                }
+            }
+            (Value::Number(w), Value::Number(g)) => {
+                let (w, g) = (w.as_f64().unwrap(), g.as_f64().unwrap());
+                assert!(close(w, g), "{at}: {g} != {w}");
+            }
+            (w, g) => assert_eq!(w, g, "{at}"),
+        }
+    }
+
+    #[test]
+    fn a_2019_mission_renders_back_to_the_judges_document_in_feet() {
+        // The fixture as the judges sent it, without what jink does not keep.
+        let mut want = fixture("mission_2019.json");
+        for k in ["offAxisOdlcPos", "airDropPos", "emergentLastKnownPos"] {
+            want.as_object_mut().unwrap().remove(k);
+        }
+        let m = read(fixture("mission_2019.json"));
+        let got = render_mission_2019(&m, 1);
+        assert_subset(&want, &got, "");
+        // ... and what it renders reads back as the same mission (feet and back: to 1e-9).
+        let back = serde_json::to_value(read(got).content).unwrap();
+        assert_subset(&serde_json::to_value(&m.content).unwrap(), &back, "");
+    }
+
+    #[test]
+    fn webster_field_round_trips_through_the_2019_rendering() {
+        let m = read(fixture("mission_2021_webster_field.json"));
+        let got = render_mission_2019(&m, 7);
+        assert_eq!(got["id"], 7);
+        let back = read(got);
+        assert_eq!(back.home, m.home);
+        assert_eq!(back.content.waypoints.len(), 14);
+        for (a, b) in back.content.waypoints.iter().zip(&m.content.waypoints) {
+            assert!(close(a.alt_msl_m, b.alt_msl_m) && a.lat == b.lat && a.lon == b.lon);
+        }
+    }
+
+    #[test]
+    fn a_2018_mission_renders_back_with_its_orders_and_feet() {
+        let mut want = fixture("mission_2018.json");
+        for k in [
+            "air_drop_pos",
+            "off_axis_odlc_pos",
+            "emergent_last_known_pos",
+        ] {
+            want.as_object_mut().unwrap().remove(k);
+        }
+        // jink keeps no altitude for search-grid points.
+        for p in want["search_grid_points"].as_array_mut().unwrap() {
+            p.as_object_mut().unwrap().remove("altitude_msl");
+        }
+        let m = read(fixture("mission_2018.json"));
+        let got = render_mission_2018(&m, 1);
+        assert_subset(&want, &got, "");
+        let back = serde_json::to_value(read(got).content).unwrap();
+        assert_subset(&serde_json::to_value(&m.content).unwrap(), &back, "");
+    }
+
+    #[test]
+    fn a_2018_missions_obstacles_render_in_feet_and_knots() {
+        // The 2018 superuser list carried cylinders and moving-obstacle announcements.
+        let mut doc = fixture("mission_2018.json");
+        doc["stationary_obstacles"] = serde_json::json!([
+            {"latitude": 38.14, "longitude": -76.43, "cylinder_radius": 150.0, "cylinder_height": 300.0},
+            {"latitude": 38.145, "longitude": -76.428, "cylinder_radius": 75.5, "cylinder_height": 212.25}
+        ]);
+        doc["moving_obstacles"] = serde_json::json!([
+            {"sphere_radius": 50.0, "speed_avg": 30.0},
+            {"sphere_radius": 35.0, "speed_avg": 12.5}
+        ]);
+        let m = read(doc.clone());
+        assert!(close(
+            m.content.stationary_obstacles[0].radius_m,
+            150.0 * 0.3048
+        ));
+        let got = render_mission_2018(&m, 3);
+        assert_eq!(got["id"], 3);
+        assert_subset(
+            &doc["stationary_obstacles"],
+            &got["stationary_obstacles"],
+            "/stationary_obstacles",
+        );
+        assert_subset(
+            &doc["moving_obstacles"],
+            &got["moving_obstacles"],
+            "/moving_obstacles",
+        );
+    }
+
+    #[test]
+    fn an_obstacle_snapshot_renders_back_to_the_judges_snapshot() {
+        let want = fixture("obstacles_2018.json");
+        let moving: Vec<MovingPosition> =
+            crate::telemetry::parse_observations(want.clone(), None, 0.0)
+                .unwrap()
+                .iter()
+                .map(|o| MovingPosition {
+                    lat: o.lat_deg,
+                    lon: o.lon_deg,
+                    alt_msl_m: o.alt_msl_m,
+                    radius_m: o.radius_m,
+                })
+                .collect();
+        let stationary: Vec<StationaryObstacle> = want["stationary_obstacles"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                cylinder_ft(
+                    i,
+                    c["latitude"].as_f64().unwrap(),
+                    c["longitude"].as_f64().unwrap(),
+                    c["cylinder_radius"].as_f64().unwrap(),
+                    c["cylinder_height"].as_f64().unwrap(),
+                )
+            })
+            .collect();
+        let got = render_obstacles_2018(&moving, &stationary);
+        assert_subset(&want, &got, "");
+    }
+
+    #[test]
+    fn telemetry_renders_in_feet_for_both_generations() {
+        let want = fixture("telemetry_2019.json");
+        let s = crate::telemetry::parse_telemetry_json(want.clone(), 5.0)
+            .unwrap()
+            .remove(0);
+        assert_subset(&want, &render_telemetry_2019(&s), "");
+        let form = render_telemetry_2018_form(&s);
+        let back = crate::telemetry::parse_telemetry_form(form.as_bytes(), 5.0).unwrap();
+        assert_eq!(back.lat_deg, s.lat_deg);
+        assert!(close(back.alt_msl_m, s.alt_msl_m));
+        assert!(close(back.alt_msl_m, 50.0 * 0.3048));
+        assert!(form.contains("uas_heading=90"), "{form}");
     }
 }

@@ -32,6 +32,7 @@ pub fn complete(doc: &mut Value) {
     constrain_array_items(doc);
     binary_images(doc);
     add_access(doc);
+    crate::interop::api::complete_doc(doc);
 }
 
 /// Access (issue 12): the bearer scheme, declared optional globally (`{}` or `bearer`: a

@@ -19,6 +19,9 @@ pub struct Health {
     pub database: String,
     /// The jink version.
     pub version: String,
+    /// The upstream link to the judges' server, when `serve --interop-url` runs one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interop: Option<crate::interop::LinkStatus>,
 }
 
 /// Liveness and database reachability.
@@ -33,6 +36,7 @@ async fn healthz(State(state): State<AppState>) -> Result<axum::Json<Health>, Ap
         status: "ok".into(),
         database: format!("{:?}", state.store.backend()).to_lowercase(),
         version: env!("CARGO_PKG_VERSION").into(),
+        interop: state.interop.link(),
     }))
 }
 
@@ -45,7 +49,7 @@ async fn metrics(State(state): State<AppState>) -> impl IntoResponse {
             header::CONTENT_TYPE,
             "text/plain; version=0.0.4; charset=utf-8",
         )],
-        state.metrics.render(),
+        state.metrics.render() + &state.interop.render_metrics(),
     )
 }
 

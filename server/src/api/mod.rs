@@ -45,6 +45,7 @@ risk maps, avoidance plans and exports. Errors are RFC 9457 application/problem+
         (name = "avoid", description = "Seed 004 waypoint insertion for one leg and one obstacle; stateless"),
         (name = "prediction", description = "Obstacle characterization (stages, estimates, stage history) and risk maps (seed 002)"),
         (name = "reactive", description = "Onboard LiDAR avoiders (offset algorithm, Bezier pilot, sectors); stateless"),
+        (name = "interop", description = "The judges' interoperability-server API (2017/2018 and 2019+, feet), so that existing interop clients talk to jink unchanged"),
     )
 )]
 pub struct ApiDoc;
@@ -64,6 +65,7 @@ pub fn router() -> OpenApiRouter<AppState> {
         .merge(obstacles::router())
         .merge(risk::router())
         .merge(search::router())
+        .merge(crate::interop::api::router())
     // jink:routes -- register each new API module above this line with `.merge(module::router())`
 }
 

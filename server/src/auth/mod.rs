@@ -203,6 +203,14 @@ pub fn required_role(method: &Method, path: &str) -> Access {
         return Access::Read;
     }
     let path = path.trim_end_matches('/');
+    // The interop surface (issue 15): logging in is open (the login checks the token
+    // itself); telemetry is ingest.
+    if path == "/api/login" {
+        return Access::Open;
+    }
+    if path == "/api/telemetry" {
+        return Access::Ingest;
+    }
     if path.starts_with("/api/v1/tokens") || path == "/api/v1/missions" {
         return Access::Admin;
     }
@@ -330,7 +338,14 @@ pub async fn guard(State(state): State<AppState>, req: Request, next: Next) -> R
     // Read what is needed first: nothing of the request is held across an await (its body
     // is not `Sync`).
     let access = required_role(req.method(), req.uri().path());
-    let admitted = match (access.role(), credentials(req.headers())) {
+    let presented = match credentials(req.headers()) {
+        // An interop client's session cookie stands for the token it logged in with.
+        Ok(None) => Ok(crate::interop::session_cookie(req.headers())
+            .and_then(|id| state.interop.sessions.get(&id))
+            .and_then(|s| s.token)),
+        other => other,
+    };
+    let admitted = match (access.role(), presented) {
         (None, _) => Ok(Principal::local()),
         (Some(_), Err(e)) => Err(e),
         (Some(role), Ok(presented)) => {
@@ -428,6 +443,9 @@ mod tests {
         );
         assert_eq!(a(Method::POST, "/api/v1/reactive/offset"), Access::Read);
         assert_eq!(a(Method::PUT, "/anything"), Access::Admin);
+        assert_eq!(a(Method::POST, "/api/login"), Access::Open);
+        assert_eq!(a(Method::POST, "/api/telemetry"), Access::Ingest);
+        assert_eq!(a(Method::GET, "/api/missions/1"), Access::Read);
     }
 
     #[test]

@@ -5,6 +5,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 pub mod demo;
+pub mod interop;
 pub mod openapi;
 pub mod plan;
 pub mod reactive;
@@ -22,6 +23,8 @@ pub struct Cli {
 }
 
 /// The subcommands.
+// Parsed once at start: the size of `serve`'s flags does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Run the HTTP service (SQLite file in the working directory by default).
@@ -39,6 +42,9 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// Create, list and revoke the bearer tokens of a database (`read`, `write`, `admin`).
     Token(token::TokenArgs),
+    /// The judges' interop server: `status` (what the upstream link sees) and `pull`
+    /// (fetch the mission once and store it).
+    Interop(interop::InteropArgs),
     // jink:subcommands -- add a variant here and its arm in `run` below
 }
 
@@ -53,6 +59,7 @@ pub fn run() -> ExitCode {
         Command::Simulate(args) => simulate::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Token(args) => token::run(args),
+        Command::Interop(args) => interop::run(args),
         // jink:dispatch
     }
 }

@@ -81,6 +81,16 @@ pub struct ServeArgs {
 
     #[command(flatten)]
     pub access: AccessArgs,
+
+    /// The format `GET /api/missions[/{id}]` (the interop surface) renders missions in:
+    /// `auto` (each mission's source format; native missions as 2019+), `2018` or `2019`.
+    #[arg(long, env = "JINK_INTEROP_FORMAT", value_enum, default_value = "auto")]
+    pub interop_format: crate::interop::FormatFlag,
+
+    /// The upstream link to the judges' interop server (see the README's "At the
+    /// competition").
+    #[command(flatten)]
+    pub interop: super::interop::LinkArgs,
 }
 
 /// Whether requests need a token.
@@ -265,6 +275,13 @@ pub fn run(args: ServeArgs) -> ExitCode {
         return ExitCode::FAILURE;
     };
     let code = rt.block_on(async move {
+        let link = match args.interop.config() {
+            Ok(l) => l,
+            Err(e) => {
+                eprintln!("jink: {e}");
+                return ExitCode::FAILURE;
+            }
+        };
         let net = match args.access.net() {
             Ok(n) => n,
             Err(e) => {
@@ -312,6 +329,19 @@ pub fn run(args: ServeArgs) -> ExitCode {
                 access,
             },
         );
+        state.interop.set_format(args.interop_format);
+        if let Some(cfg) = link {
+            match crate::interop::link::Upstream::new(cfg) {
+                Ok(up) => {
+                    tracing::info!(url = %up.cfg.url, mission = up.cfg.mission, "interop link starting");
+                    tokio::spawn(crate::interop::link::run(state.clone(), std::sync::Arc::new(up)));
+                }
+                Err(e) => {
+                    eprintln!("jink: cannot start the interop link: {e}");
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
         if state.store.backend() == crate::store::Backend::Postgres {
             // Other replicas' batches reach this replica's live state.
             tokio::spawn(crate::live::notify::listen(

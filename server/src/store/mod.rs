@@ -466,7 +466,14 @@ pub(crate) fn missing_mission<T>(r: Result<T, sqlx::Error>) -> Result<Option<T>,
 }
 
 /// Tables whose rows belong to a mission (deleted with it). Later migrations add theirs.
-pub const CHILD_TABLES: &[&str] = &["obstacle_observations", "aircraft_telemetry", "plans"];
+pub const CHILD_TABLES: &[&str] = &[
+    "obstacle_observations",
+    "aircraft_telemetry",
+    "plans",
+    "interop_links",
+    "interop_forwarded",
+    "interop_numbers",
+];
 
 /// Decodes `SELECT obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m`.
 pub(crate) fn observation_row(r: &sqlx::any::AnyRow) -> Result<ObservationRow, sqlx::Error> {
