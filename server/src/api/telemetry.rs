@@ -18,8 +18,8 @@ use crate::timing::ServerTiming;
 use axum::response::IntoResponse;
 use wire::ids::MissionId;
 use wire::telemetry::{
-    AircraftTelemetry, AircraftTelemetryOut, ObservationBatch, ObservationOut, parse_observations,
-    parse_telemetry_form, parse_telemetry_json,
+    AircraftSample, AircraftTelemetry, AircraftTelemetryOut, ObservationBatch, ObservationOut,
+    parse_observations, parse_telemetry_form, parse_telemetry_json,
 };
 
 /// What happened to a posted batch.
@@ -130,6 +130,27 @@ async fn list_observations(
     ))
 }
 
+/// The aircraft samples of a telemetry body: JSON (native or interop 2019+, its items
+/// counted against the limits) or an interop 2017/2018 form, stamped `received` when they
+/// carry no time; any other media type is a 415 saying `unsupported`.
+pub(crate) fn telemetry_rows(
+    state: &AppState,
+    headers: &HeaderMap,
+    body: &[u8],
+    received: f64,
+    unsupported: &str,
+) -> Result<Vec<AircraftSample>, ApiError> {
+    Ok(match media_type(headers) {
+        MediaType::Form => vec![parse_telemetry_form(body, received)?],
+        MediaType::Json => {
+            let value: serde_json::Value = parse_json(body)?;
+            crate::limits::check_items(&value, &state.settings.access.items)?;
+            parse_telemetry_json(value, received)?
+        }
+        _ => return Err(ApiError::UnsupportedMediaType(unsupported.into())),
+    })
+}
+
 /// Post aircraft telemetry.
 ///
 /// Native JSON `{"t", "lat", "lon", "alt_msl_m", "heading_deg", "speed_mps"}` (or a list
@@ -151,19 +172,13 @@ async fn post_telemetry(
     Body(body): Body,
 ) -> Result<(StatusCode, axum::Json<IngestResult>), ApiError> {
     let received = now_s();
-    let rows = match media_type(&headers) {
-        MediaType::Form => vec![parse_telemetry_form(&body, received)?],
-        MediaType::Json => {
-            let value: serde_json::Value = parse_json(&body)?;
-            crate::limits::check_items(&value, &state.settings.access.items)?;
-            parse_telemetry_json(value, received)?
-        }
-        _ => {
-            return Err(ApiError::UnsupportedMediaType(
-                "aircraft telemetry is application/json (native or interop 2019) or application/x-www-form-urlencoded (interop 2018)".into(),
-            ));
-        }
-    };
+    let rows = telemetry_rows(
+        &state,
+        &headers,
+        &body,
+        received,
+        "aircraft telemetry is application/json (native or interop 2019) or application/x-www-form-urlencoded (interop 2018)",
+    )?;
     let counts = state
         .store
         .insert_telemetry(&id, &rows, received)

@@ -31,7 +31,6 @@ use crate::time::{format_rfc3339, now_s};
 use wire::interop::{
     MovingPosition, m_to_ft, render_mission_2018, render_mission_2019, render_obstacles_2018,
 };
-use wire::telemetry::{parse_telemetry_form, parse_telemetry_json};
 
 /// Interop login credentials (2019+ JSON; 2017/2018 sent the same fields form-encoded).
 #[derive(Debug, Deserialize, ToSchema)]
@@ -258,19 +257,13 @@ async fn interop_post_telemetry(
     Body(body): Body,
 ) -> Result<Response, ApiError> {
     let received = now_s();
-    let rows = match media_type(&headers) {
-        MediaType::Form => vec![parse_telemetry_form(&body, received)?],
-        MediaType::Json => {
-            let value: serde_json::Value = parse_json(&body)?;
-            crate::limits::check_items(&value, &state.settings.access.items)?;
-            parse_telemetry_json(value, received)?
-        }
-        _ => {
-            return Err(ApiError::UnsupportedMediaType(
-                "interop telemetry is application/json (2019+) or application/x-www-form-urlencoded (2017/2018)".into(),
-            ));
-        }
-    };
+    let rows = crate::api::telemetry::telemetry_rows(
+        &state,
+        &headers,
+        &body,
+        received,
+        "interop telemetry is application/json (2019+) or application/x-www-form-urlencoded (2017/2018)",
+    )?;
     let s = session(&state, &headers).map(|(_, s)| s);
     let mission = active_mission(&state, s.as_ref()).await?;
     state

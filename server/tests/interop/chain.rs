@@ -141,15 +141,7 @@ async fn a_linked_jink_mirrors_the_mission_and_forwards_telemetry_exactly_once_t
         .get_json(&format!("/api/v1/missions/{a_mission}/telemetry"))
         .await;
     assert_eq!(in_a.as_array().unwrap().len(), 90);
-    let metrics = a
-        .client
-        .get(a.url("/metrics"))
-        .send()
-        .await
-        .unwrap()
-        .text()
-        .await
-        .unwrap();
+    let metrics = a.get_text("/metrics").await;
     assert!(metrics.contains("jink_interop_queue_depth 0"), "{metrics}");
     assert!(metrics.contains("jink_interop_connected 1"), "{metrics}");
 }

@@ -258,15 +258,7 @@ async fn a_misbehaving_upstream_never_crashes_jink_and_every_failure_is_reported
         "two obstacles per good snapshot: {}",
         obs.len()
     );
-    let metrics = a
-        .client
-        .get(a.url("/metrics"))
-        .send()
-        .await
-        .unwrap()
-        .text()
-        .await
-        .unwrap();
+    let metrics = a.get_text("/metrics").await;
     assert!(
         metrics.contains("jink_interop_rejected_total 1"),
         "{metrics}"

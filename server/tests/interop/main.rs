@@ -3,6 +3,10 @@
 //! 2019+ requests), and as a client of an upstream judges' server (another jink, or a
 //! misbehaving fake).
 
+#[allow(dead_code)]
+#[path = "../e2e/support.rs"]
+mod e2e_support;
+
 mod chain;
 mod cli;
 mod faults;

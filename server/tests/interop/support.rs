@@ -1,13 +1,14 @@
 //! A real `jink serve` on its own SQLite database, which can be stopped and started again
 //! at the same address (a judges' server that goes away and comes back).
 
-use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
+
+use crate::e2e_support::spawn_jink;
 
 pub fn fixture(name: &str) -> Value {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -58,25 +59,13 @@ impl Jink {
     }
 
     fn launch(&mut self, bind: &str) {
-        let log = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(self.dir.path().join("jink.log"))
-            .unwrap();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_jink"))
-            .args(["serve", "--bind", bind, "--database-url", &self.db_url])
-            .args(&self.args)
-            .env("RUST_LOG", "warn")
-            .current_dir(self.dir.path())
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::from(log))
-            .spawn()
-            .expect("start jink");
-        let stdout = child.stdout.take().unwrap();
+        let mut args = vec!["serve", "--bind", bind, "--database-url", &self.db_url];
+        args.extend(self.args.iter().map(String::as_str));
+        let (mut child, lines) = spawn_jink(&args, self.dir.path(), "jink.log");
+        // The address line, read on a thread so that a jink that never prints it times out.
         let (tx, rx) = mpsc::channel();
         std::thread::spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            for line in lines {
                 if let Some(addr) = line.strip_prefix("jink listening on ") {
                     let _ = tx.send(addr.to_string());
                 }
@@ -126,6 +115,13 @@ impl Jink {
         let r = self.client.get(self.url(path)).send().await.unwrap();
         assert!(r.status().is_success(), "GET {path}: {}", r.status());
         r.json().await.unwrap()
+    }
+
+    /// `GET path`'s body as text (the Prometheus `/metrics`, say).
+    pub async fn get_text(&self, path: &str) -> String {
+        let r = self.client.get(self.url(path)).send().await.unwrap();
+        assert!(r.status().is_success(), "GET {path}: {}", r.status());
+        r.text().await.unwrap()
     }
 
     /// Stores a mission through the native API; its jink id.
