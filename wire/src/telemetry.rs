@@ -344,11 +344,11 @@ fn sample(
         ));
     }
     if let Some(v) = s.speed_mps
-        && !(v.is_finite() && v >= 0.0)
+        && !(v.is_finite() && (0.0..=MAX_SPEED_MPS).contains(&v))
     {
         errs.push(FieldError::new(
             format!("{at}/{}", keys[4]),
-            format!("speed {v} must be a non-negative number"),
+            format!("speed {v} is not in [0, {MAX_SPEED_MPS}] m/s"),
         ));
     }
     AircraftSample {
@@ -381,6 +381,11 @@ fn interop_sample(
     let keys = [lat_key, lon_key, alt_key, heading_key, "-"];
     sample(errs, "", keys, &s, received_s)
 }
+
+/// The highest aircraft speed jink accepts, m/s (about 390 kt: far above any fixed-wing
+/// UAV; a plan's forward flight is simulated in steps of time that shrink with speed, so
+/// an absurd speed would make it endless).
+pub const MAX_SPEED_MPS: f64 = 200.0;
 
 const NATIVE_KEYS: [&str; 5] = ["lat", "lon", "alt_msl_m", "heading_deg", "speed_mps"];
 

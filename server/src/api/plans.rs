@@ -60,13 +60,16 @@ impl From<StrategyIn> for planner::Strategy {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct AircraftIn {
-    /// Cruise speed, m/s (default 20; telemetry speed wins when reported).
-    #[schema(exclusive_minimum = 0)]
+    /// Cruise speed, m/s (default 20; telemetry speed wins when reported), at most 200.
+    #[schema(exclusive_minimum = 0, maximum = 200)]
     pub speed_mps: Option<f64>,
-    /// Minimum turn radius, metres (default 40).
-    #[schema(minimum = 0)]
+    /// Minimum turn radius, metres (default 40), at most 10 000.
+    #[schema(minimum = 0, maximum = 10000)]
     pub turn_radius_m: Option<f64>,
 }
+
+/// The largest turn radius a plan accepts, metres.
+const MAX_TURN_RADIUS_M: f64 = 10_000.0;
 
 /// `POST /api/v1/missions/{id}/plan` body (every field optional; `{}` is fine).
 #[derive(Debug, Clone, Default, Deserialize, ToSchema)]
@@ -177,11 +180,18 @@ async fn create_plan(
     let a = body.aircraft.unwrap_or_default();
     let speed_mps = a.speed_mps.unwrap_or(20.0);
     let turn_radius_m = a.turn_radius_m.unwrap_or(40.0);
-    if !(speed_mps.is_finite() && speed_mps > 0.0) {
-        return Err(ApiError::field("/aircraft/speed_mps", "must be positive"));
+    let max_speed = wire::telemetry::MAX_SPEED_MPS;
+    if !(speed_mps.is_finite() && speed_mps > 0.0 && speed_mps <= max_speed) {
+        return Err(ApiError::field(
+            "/aircraft/speed_mps",
+            format!("must be in (0, {max_speed}] m/s"),
+        ));
     }
-    if !(turn_radius_m.is_finite() && turn_radius_m >= 0.0) {
-        return Err(ApiError::field("/aircraft/turn_radius_m", "must be >= 0"));
+    if !(turn_radius_m.is_finite() && (0.0..=MAX_TURN_RADIUS_M).contains(&turn_radius_m)) {
+        return Err(ApiError::field(
+            "/aircraft/turn_radius_m",
+            format!("must be in [0, {MAX_TURN_RADIUS_M}] m"),
+        ));
     }
     let horizon_s = body.horizon_s.unwrap_or(60.0);
     if !(horizon_s.is_finite() && horizon_s > 0.0 && horizon_s <= 600.0) {
