@@ -150,9 +150,9 @@ pub struct AircraftTelemetry {
     /// Heading, degrees true, [0, 360].
     #[cfg_attr(feature = "openapi", schema(minimum = 0.0, maximum = 360.0))]
     pub heading_deg: f64,
-    /// Ground speed, m/s (>= 0).
+    /// Ground speed, m/s, in [0, 200] ([`MAX_SPEED_MPS`]).
     #[serde(default)]
-    #[cfg_attr(feature = "openapi", schema(minimum = 0.0))]
+    #[cfg_attr(feature = "openapi", schema(minimum = 0.0, maximum = 200.0))]
     pub speed_mps: Option<f64>,
 }
 
