@@ -108,24 +108,8 @@ impl App {
         let bind = self.bind.clone().unwrap_or_else(|| "127.0.0.1:0".into());
         let mut args = vec!["serve", "--bind", &bind, "--database-url", &self.db_url];
         args.extend(self.extra_args.iter().map(String::as_str));
-        let (mut child, lines) = spawn_jink(&args, self.dir.path(), "jink.log");
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in lines {
-                if let Some(addr) = line.strip_prefix("jink listening on ") {
-                    let _ = tx.send(addr.to_string());
-                }
-            }
-        });
-        match rx.recv_timeout(Duration::from_secs(60)) {
-            Ok(addr) => self.base = addr,
-            Err(_) => {
-                let _ = child.kill();
-                let log =
-                    std::fs::read_to_string(self.dir.path().join("jink.log")).unwrap_or_default();
-                panic!("jink did not start within 60 s; its log:\n{log}");
-            }
-        }
+        let (child, base) = serve_jink(&args, self.dir.path());
+        self.base = base;
         self.child = Some(child);
     }
 
@@ -263,6 +247,30 @@ impl Drop for App {
         }
         if let Some(name) = self.pg_db.take() {
             drop_database(name);
+        }
+    }
+}
+
+/// Starts `jink serve ...` (`args` from `serve` on) in `dir` with its stderr appended to
+/// `dir/jink.log`, and waits for its address (`http://...`); panics with the log when it
+/// has not printed one within 60 s.
+pub fn serve_jink(args: &[&str], dir: &Path) -> (Child, String) {
+    let (mut child, lines) = spawn_jink(args, dir, "jink.log");
+    // The address line, read on a thread so that a jink that never prints it times out.
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in lines {
+            if let Some(addr) = line.strip_prefix("jink listening on ") {
+                let _ = tx.send(addr.to_string());
+            }
+        }
+    });
+    match rx.recv_timeout(Duration::from_secs(60)) {
+        Ok(addr) => (child, addr),
+        Err(_) => {
+            let _ = child.kill();
+            let log = std::fs::read_to_string(dir.join("jink.log")).unwrap_or_default();
+            panic!("jink did not start within 60 s; its log:\n{log}");
         }
     }
 }

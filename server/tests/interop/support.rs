@@ -3,12 +3,11 @@
 
 use std::path::PathBuf;
 use std::process::{Child, Command};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
-use crate::e2e_support::spawn_jink;
+use crate::e2e_support::serve_jink;
 
 pub fn fixture(name: &str) -> Value {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -61,23 +60,8 @@ impl Jink {
     fn launch(&mut self, bind: &str) {
         let mut args = vec!["serve", "--bind", bind, "--database-url", &self.db_url];
         args.extend(self.args.iter().map(String::as_str));
-        let (mut child, lines) = spawn_jink(&args, self.dir.path(), "jink.log");
-        // The address line, read on a thread so that a jink that never prints it times out.
-        let (tx, rx) = mpsc::channel();
-        std::thread::spawn(move || {
-            for line in lines {
-                if let Some(addr) = line.strip_prefix("jink listening on ") {
-                    let _ = tx.send(addr.to_string());
-                }
-            }
-        });
-        match rx.recv_timeout(Duration::from_secs(60)) {
-            Ok(addr) => self.base = addr,
-            Err(_) => {
-                let _ = child.kill();
-                panic!("jink did not start within 60 s; its log:\n{}", self.log());
-            }
-        }
+        let (child, base) = serve_jink(&args, self.dir.path());
+        self.base = base;
         self.child = Some(child);
     }
 
