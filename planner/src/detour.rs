@@ -31,6 +31,11 @@ pub struct DetourParams {
     pub bearing_step_deg: f64,
     /// Largest bearing either side of the direction to the target, degrees. Default 160.
     pub max_bearing_deg: f64,
+    /// Radii of the hold circles ([`hold_candidates`]), in units of the turn radius.
+    /// Default `[1.5, 2.5]`.
+    pub hold_radii_r: [f64; 2],
+    /// Avoid points per hold circle. Default 6 (a 60 degree turn at each).
+    pub hold_points: usize,
 }
 
 impl Default for DetourParams {
@@ -39,6 +44,8 @@ impl Default for DetourParams {
             ranges_r: [3.0, 5.0, 8.0, 12.0, 18.0],
             bearing_step_deg: 20.0,
             max_bearing_deg: 160.0,
+            hold_radii_r: [1.5, 2.5],
+            hold_points: 6,
         }
     }
 }
@@ -133,6 +140,70 @@ pub fn detour_candidates(
     out
 }
 
+/// Hold patterns (a wait in space and time; beyond seed 002, whose bisection can only
+/// bend a route, never delay it): one circle flown from the aircraft's position and
+/// heading, turning left or right, of each radius in [`DetourParams::hold_radii_r`] turn
+/// radii, through [`DetourParams::hold_points`] avoid points ending where it began, then
+/// each of `tails` unchanged. A sphere crossing a corridor ahead (between a cylinder and
+/// the fly zone's edge, say) passes while the aircraft circles. `heading_rad` is the
+/// compass heading (clockwise from north). Circles that leave the fly zone or touch a
+/// cylinder (grown by a fifth) at `alt_m` are not proposed. The caller verifies each one
+/// on the time axis, so a hold wins only when it is clear and nothing shorter is.
+#[allow(clippy::too_many_arguments)]
+pub fn hold_candidates(
+    from: Point,
+    heading_rad: f64,
+    tails: &[&[StackItem]],
+    alt_m: f64,
+    turn_radius_m: f64,
+    cylinders: &[Cylinder],
+    zones: &Zones,
+    params: &DetourParams,
+) -> Vec<Vec<StackItem>> {
+    let n = params.hold_points.max(3);
+    // ENU direction angle (counter-clockwise from east) of the compass heading.
+    let th = std::f64::consts::FRAC_PI_2 - heading_rad;
+    let step = std::f64::consts::TAU / n as f64;
+    let mut out = Vec::new();
+    for &k in &params.hold_radii_r {
+        let r = k * turn_radius_m.max(1.0);
+        for side in [1.0f64, -1.0] {
+            // Left (side 1): the centre is to the left and the circle runs counter-clockwise.
+            let c = add(from, scale([-th.sin() * side, th.cos() * side], r));
+            let phi0 = th - side * std::f64::consts::FRAC_PI_2;
+            let pts: Vec<Point> = (1..=n)
+                .map(|i| {
+                    if i == n {
+                        return from;
+                    }
+                    let phi = phi0 + side * step * i as f64;
+                    add(c, scale([phi.cos(), phi.sin()], r))
+                })
+                .collect();
+            let mut ring = pts.clone();
+            ring.insert(0, from);
+            let clear = ring.windows(2).all(|w| zones.contains_segment(w[0], w[1]))
+                && !cylinders.iter().any(|cy| {
+                    cy.matters_at(alt_m)
+                        && ring.windows(2).any(|w| {
+                            crate::geometry::dist_point_segment(cy.center_m, w[0], w[1])
+                                < cy.radius_m * 1.2
+                        })
+                });
+            if !clear {
+                continue;
+            }
+            for tail in tails {
+                let mut cand: Vec<StackItem> =
+                    pts.iter().map(|&q| StackItem::avoid(q, alt_m)).collect();
+                cand.extend_from_slice(tail);
+                out.push(cand);
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -191,5 +262,83 @@ mod tests {
             let fixed: Vec<_> = cand.iter().filter(|it| it.is_fixed()).collect();
             assert_eq!(fixed, vec![&tail[0], &tail[1]]);
         }
+    }
+
+    #[test]
+    fn a_hold_is_a_flyable_circle_from_the_aircraft_back_to_it_then_the_tail() {
+        use crate::stack::ItemKind;
+        use crate::turn::{reachable_from_heading, turn_violations};
+        let zones = rectangle(-1000.0, -1000.0, 1000.0, 2000.0);
+        let tail = north(1000.0, 1500.0);
+        let r = 40.0;
+        for heading in [0.0f64, 1.0, 2.5, -2.0] {
+            let c = hold_candidates(
+                [0.0, 0.0],
+                heading,
+                &[&tail],
+                100.0,
+                r,
+                &[],
+                &zones,
+                &DetourParams::default(),
+            );
+            // Two radii, two sides.
+            assert_eq!(c.len(), 4, "{heading}");
+            let mut sides = Vec::new();
+            for cand in &c {
+                assert!(cand.ends_with(&tail));
+                let ring = &cand[..cand.len() - tail.len()];
+                assert_eq!(ring.len(), 6);
+                assert_eq!(ring.last().unwrap().p_m, [0.0, 0.0]);
+                assert!(ring.iter().all(|it| it.kind == ItemKind::Avoid));
+                // The first point is ahead, reachable from the heading at the turn radius.
+                let first = ring[0].p_m;
+                let ahead = first[0] * heading.sin() + first[1] * heading.cos();
+                assert!(ahead > 0.0, "{heading} {first:?}");
+                assert!(reachable_from_heading([0.0, 0.0], heading, first, r));
+                // A circle: every point as far from the centre, every turn flyable.
+                let mut pts = vec![[0.0, 0.0]];
+                pts.extend(ring.iter().map(|it| it.p_m));
+                let centre = [
+                    pts[..6].iter().map(|q| q[0]).sum::<f64>() / 6.0,
+                    pts[..6].iter().map(|q| q[1]).sum::<f64>() / 6.0,
+                ];
+                let rad: Vec<f64> = pts.iter().map(|&q| dist(q, centre)).collect();
+                assert!(
+                    rad.iter()
+                        .all(|&d| (d - rad[0]).abs() < 1e-6 && d >= 1.5 * r - 1e-6)
+                );
+                assert!(turn_violations(&pts, r, None).is_empty(), "{pts:?}");
+                // Left or right of the heading.
+                let side = centre[0] * heading.cos() - centre[1] * heading.sin();
+                sides.push(side.signum());
+            }
+            assert!(sides.contains(&1.0) && sides.contains(&-1.0));
+        }
+    }
+
+    #[test]
+    fn no_hold_leaves_the_zone_or_touches_a_cylinder() {
+        // A corridor 260 m wide: only the 1.5 R circles (120 m across) fit, and a cylinder
+        // to the east takes the right-hand one.
+        let zones = rectangle(-130.0, -100.0, 130.0, 2000.0);
+        let tail = north(1000.0, 1500.0);
+        let cyl = Cylinder {
+            center_m: [90.0, 40.0],
+            radius_m: 10.0,
+            top_m: 200.0,
+        };
+        let c = hold_candidates(
+            [0.0, 0.0],
+            0.0,
+            &[&tail],
+            100.0,
+            40.0,
+            &[cyl],
+            &zones,
+            &DetourParams::default(),
+        );
+        assert_eq!(c.len(), 1, "{c:?}");
+        assert!(c[0].iter().all(|it| it.p_m[0] <= 0.0 + 1e-9));
     }
 }

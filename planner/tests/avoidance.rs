@@ -424,3 +424,64 @@ fn the_margin_never_swallows_a_waypoint_next_to_a_cylinder() {
     );
     assert!(p.items.iter().any(|i| i.p_m == [1000.0, 0.0]));
 }
+
+/// A disc of risk 1 (radius `r_m`, no spread) whose centre moves as `p0 + v t`: the whole
+/// truth, so the planner is checked for what it can do with perfect knowledge.
+struct Sweeper {
+    p0: Point,
+    v: Point,
+    r_m: f64,
+}
+
+impl Sweeper {
+    fn at(&self, t: f64) -> Point {
+        [self.p0[0] + self.v[0] * t, self.p0[1] + self.v[1] * t]
+    }
+}
+
+impl predictor::RiskField for Sweeper {
+    fn risk(&self, p: [f64; 2], t: f64) -> f64 {
+        if dist(p, self.at(t)) < self.r_m {
+            1.0
+        } else {
+            0.0
+        }
+    }
+}
+
+#[test]
+fn a_sphere_sweeping_across_a_corridor_is_waited_for() {
+    // A corridor 140 m wide runs east from just behind the aircraft, which flies its south
+    // side (y = -60) at 20 m/s. A sphere of 150 m radius, wider than the corridor, sweeps
+    // south across it at x = 600 at 10 m/s and covers both sides of it from t = 22 s to
+    // t = 40 s: the aircraft, there at t = 30 s, cannot pass beside, ahead or (without a
+    // long delay) behind it, and there is little room behind to turn back. A hold circle
+    // (1.5 turn radii, 19 s) lets it go by.
+    let mut mission = common::one_leg_mission([-70.0, -70.0], [2200.0, 70.0]);
+    mission.waypoints = common::waypoints_at_100m(&[[0.0, -60.0], [2000.0, -60.0]]);
+    let stack = mission_stack(&mission);
+    let sphere = Sweeper {
+        p0: [600.0, 310.0],
+        v: [0.0, -10.0],
+        r_m: 150.0,
+    };
+    let mut req = static_request(&mission, &stack);
+    req.state.p_m = [0.0, -60.0];
+    let params = PlanParams {
+        hold: true,
+        ..PlanParams::default()
+    };
+    let p = plan(&PlanRequest { params, ..req }, &sphere).unwrap();
+    assert_eq!(p.outcome, PlanOutcome::Exact, "{p:?}");
+    // Checked independently: the route flown at 20 m/s every metre against the sphere.
+    let r = route(&req.state, &p.items, p.current_index);
+    let gap = clearance(&r, 0.0, 20.0, sphere.r_m, |t| sphere.at(t));
+    assert!(gap > 0.0, "passes {gap:.1} m inside the sphere: {r:?}");
+    // The scenario needs the hold: without it no verified clear route exists.
+    let params = PlanParams {
+        hold: false,
+        ..PlanParams::default()
+    };
+    let q = plan(&PlanRequest { params, ..req }, &sphere).unwrap();
+    assert_ne!(q.outcome, PlanOutcome::Exact, "{q:?}");
+}

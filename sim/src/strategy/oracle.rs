@@ -1,5 +1,6 @@
 //! The oracle: the ceiling every table is compared with (issue 10). The same aircraft,
-//! replanning period, stack handling and planner as [`super::bisection`], but planning
+//! replanning period, stack handling and planner as [`super::bisection`], with hold
+//! circles on (`planner::PlanParams::hold`: a verified wait), but planning
 //! against the spheres' true future (ground truth) instead of a prediction: the risk field
 //! is 1 inside a sphere (radius plus the same safety buffer as the predictor's map) whose
 //! true altitude at that time is within reach of the route's altitudes, else 0. A hit the
@@ -49,8 +50,12 @@ pub struct Oracle {
 impl Oracle {
     /// A fresh oracle.
     pub fn new(seed: u64) -> Self {
+        let mut config = planner::ReplanConfig::default();
+        // Knowing the future, a verified wait is a real one: the ceiling may hold
+        // (`PlanParams::hold`), which the prediction-based strategies do not.
+        config.plan.hold = true;
         Self {
-            config: planner::ReplanConfig::default(),
+            config,
             period_s: 1.0,
             seed,
             calls: 0,
