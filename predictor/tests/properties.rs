@@ -162,3 +162,73 @@ fn the_advanced_stage_95_percent_region_covers_biased_turners() {
 fn the_memory_stage_95_percent_region_covers_zigzag_turners() {
     assert_covers_about_95_percent(Stage::Memory, Behaviour::Zigzag { w: w15() }, 120.0);
 }
+
+/// Fraction of trials in which the true position `horizon_s` after the last observation
+/// falls in the automatic prediction's 95% region (as in [`coverage`]), fed the telemetry a
+/// ground station gets: 2 Hz, 1 m Gaussian noise per axis (seeded), `track_s` of it. Also
+/// checks that the prediction replays the obstacle's own past (`crate::replay`).
+fn coverage_auto_noisy(b: Behaviour, track_s: f64, horizon_s: f64, trials: u64) -> f64 {
+    use rand_distr::{Distribution, Normal};
+    let noise = Normal::new(0.0, 1.0).unwrap();
+    let mut hits = 0;
+    for seed in 0..trials {
+        let mut p = Predictor::new(PredictorConfig::default());
+        let mut g = Generator::new(b, 15.0, 5000 + seed);
+        let mut nrng = ChaCha8Rng::seed_from_u64(77 + seed);
+        for (k, mut o) in g.track(track_s).into_iter().enumerate() {
+            if k % 5 == 0 {
+                o.p_m[0] += noise.sample(&mut nrng);
+                o.p_m[1] += noise.sample(&mut nrng);
+                p.observe("0", o);
+            }
+        }
+        assert!(
+            p.model("0").unwrap().replay.is_some(),
+            "seed {seed}: no replay"
+        );
+        let truth = g.advance(horizon_s);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let s = p.sample_future("0", horizon_s, 1000, &mut rng).unwrap();
+        let n = s.len() as f64;
+        let mean = [
+            s.iter().map(|q| q[0]).sum::<f64>() / n,
+            s.iter().map(|q| q[1]).sum::<f64>() / n,
+        ];
+        let mut d: Vec<f64> = s
+            .iter()
+            .map(|q| (q[0] - mean[0]).hypot(q[1] - mean[1]))
+            .collect();
+        d.sort_by(f64::total_cmp);
+        if (truth[0] - mean[0]).hypot(truth[1] - mean[1]) <= d[(0.95 * n) as usize] {
+            hits += 1;
+        }
+    }
+    let c = hits as f64 / trials as f64;
+    eprintln!("auto coverage {b:?} +{horizon_s} s: {c}");
+    c
+}
+
+/// Replay's spread comes from the obstacle's own past, estimated as noisily as its present
+/// state, so its 95% region must cover about 95% at short and long horizons alike; the band
+/// is that of [`assert_covers_about_95_percent`].
+fn assert_auto_covers_about_95_percent(b: Behaviour) {
+    for h in [2.0, 10.0, 20.0] {
+        let c = coverage_auto_noisy(b, 90.0, h, 80);
+        assert!((0.88..=0.99).contains(&c), "{b:?} +{h} s coverage {c}");
+    }
+}
+
+#[test]
+fn replayed_predictions_cover_a_constant_turn_mover_from_noisy_telemetry() {
+    assert_auto_covers_about_95_percent(Behaviour::Circling { w: 0.06 });
+}
+
+#[test]
+fn replayed_predictions_cover_uniform_turners_from_noisy_telemetry() {
+    assert_auto_covers_about_95_percent(Behaviour::Uniform { w: w15() });
+}
+
+#[test]
+fn replayed_predictions_cover_zigzag_turners_from_noisy_telemetry() {
+    assert_auto_covers_about_95_percent(Behaviour::Zigzag { w: w15() });
+}

@@ -80,6 +80,8 @@ pub struct ObstacleInput<'a> {
     pub track: &'a Track,
     /// Sphere radius, metres.
     pub radius_m: f64,
+    /// Its frames, for a model that replays its own past ([`crate::replay`]).
+    pub manoeuvres: Option<&'a crate::replay::Manoeuvres>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
