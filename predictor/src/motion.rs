@@ -17,7 +17,7 @@
 //! ENU metres, seconds, radians (heading counter-clockwise from east), m/s.
 
 use crate::estimate::Estimates;
-use crate::replay::{Manoeuvres, ReplayConfig, ReplayParticles};
+use crate::replay::{Manoeuvres, Novel, ReplayConfig, ReplayParticles};
 use crate::stage::{Stage, StageConfig, TurnHistogram, slice_of};
 use crate::stats::smoothed;
 use crate::track::Track;
@@ -243,7 +243,18 @@ impl<'a> Propagator<'a> {
         rng: &mut R,
     ) -> Self {
         if let (Some(rm), Some((track, man))) = (model.replay, replay)
-            && let Some(rp) = ReplayParticles::new(track, man, &rm.cfg, n, rng)
+            && let Some(rp) = ReplayParticles::new(
+                track,
+                man,
+                &rm.cfg,
+                Novel {
+                    speed_mps: model.speed_mps,
+                    w_max_radps: model.w_max_radps,
+                    decision_interval_s: model.decision_interval_s,
+                },
+                n,
+                rng,
+            )
         {
             return Self {
                 model,
