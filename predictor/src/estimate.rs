@@ -317,7 +317,10 @@ pub fn estimate(track: &Track, turns: &TurnSummary, cfg: &EstimatorConfig) -> Op
 /// Least-squares fit of position against time over `win`, evaluated at `t_ref`:
 /// a quadratic ("a curve through the last several points") when there are at least 5
 /// observations spanning 0.5 s, else a line; `None` with fewer than 2 observations.
-fn fit_velocity(win: &[crate::track::Observation], t_ref: f64) -> Option<([f64; 2], [f64; 2])> {
+pub(crate) fn fit_velocity(
+    win: &[crate::track::Observation],
+    t_ref: f64,
+) -> Option<([f64; 2], [f64; 2])> {
     if win.len() < 2 {
         return None;
     }

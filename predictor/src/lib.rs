@@ -7,6 +7,7 @@
 //! - [`estimate`]: velocity, heading, speed, turn samples, tightest turn radius.
 //! - [`stage`]: the four stages and the tests between them.
 //! - [`motion`]: each stage's motion model and particle propagation.
+//! - [`replay`]: manoeuvre replay, the future drawn from stretches of the obstacle's own past.
 //! - [`risk_map`]: the time-indexed, incrementally updated risk map.
 //! - [`predictor`]: the multi-obstacle [`Predictor`] tying them together.
 //! - [`stats`]: chi-square and divergence helpers.
@@ -18,6 +19,7 @@ pub mod field;
 pub mod motion;
 pub mod periodic;
 pub mod predictor;
+pub mod replay;
 pub mod risk_map;
 pub mod stage;
 pub mod stats;
@@ -25,12 +27,13 @@ pub mod track;
 
 pub use estimate::{Estimates, EstimatorConfig};
 pub use field::{NoRisk, RiskField};
-pub use motion::MotionModel;
+pub use motion::{MotionModel, ReplayModel};
 pub use periodic::{Lap, PeriodicConfig};
 pub use predictor::{
     ConstantVelocityField, ObstacleSummary, Predictor, PredictorConfig,
     RULES_MAX_OBSTACLE_SPEED_MPS,
 };
+pub use replay::ReplayConfig;
 pub use risk_map::{RiskMap, RiskMapConfig, RiskMapError, SliceView};
 pub use stage::{Stage, StageChange, StageConfig};
 pub use track::{Observation, ObserveOutcome};

@@ -17,8 +17,10 @@
 //! ENU metres, seconds, radians (heading counter-clockwise from east), m/s.
 
 use crate::estimate::Estimates;
+use crate::replay::{Manoeuvres, Novel, ReplayConfig, ReplayParticles};
 use crate::stage::{Stage, StageConfig, TurnHistogram, slice_of};
 use crate::stats::smoothed;
+use crate::track::Track;
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 
@@ -60,6 +62,19 @@ pub struct MotionModel {
     /// A recognized lap of a periodic tour: when set, positions after `t_s` are replayed
     /// from the obstacle's own earlier lap ([`crate::periodic`]) instead of propagated.
     pub lap: Option<crate::periodic::Lap>,
+    /// Manoeuvre replay ([`crate::replay`]): when set, a propagator given the obstacle's
+    /// track and frames ([`Propagator::with_replay`]) replays stretches of its own past
+    /// instead of drawing turn rates.
+    pub replay: Option<ReplayModel>,
+}
+
+/// How an obstacle's own past is replayed ([`crate::replay`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReplayModel {
+    /// The replay parameters.
+    pub cfg: ReplayConfig,
+    /// Fastest average speed over 5 s of the replayed memory, m/s (bounds the reach).
+    pub max_speed_mps: f64,
 }
 
 fn cdf_u32(p: &[f64]) -> Vec<u32> {
@@ -112,6 +127,7 @@ impl MotionModel {
             start_position_sigma_m: cfg.start_position_sigma_m,
             start_heading_sigma_rad: cfg.start_heading_sigma_rad,
             lap: None,
+            replay: None,
         }
     }
 
@@ -121,7 +137,8 @@ impl MotionModel {
         let v = if self.stage == Stage::NoFly {
             self.nofly_speed_mps
         } else {
-            self.speed_mps
+            self.replay
+                .map_or(self.speed_mps, |r| r.max_speed_mps.max(self.speed_mps))
         };
         v * dt_s.max(0.0)
     }
@@ -159,6 +176,18 @@ impl MotionModel {
         n: usize,
         rng: &mut R,
     ) -> Vec<[f64; 2]> {
+        self.sample_future_with_replay(None, dt_s, n, rng)
+    }
+
+    /// As [`MotionModel::sample_future`], replaying the obstacle's own past when the model
+    /// says so and `replay` holds its track and frames ([`Propagator::with_replay`]).
+    pub fn sample_future_with_replay<R: Rng + ?Sized>(
+        &self,
+        replay: Option<(&Track, &Manoeuvres)>,
+        dt_s: f64,
+        n: usize,
+        rng: &mut R,
+    ) -> Vec<[f64; 2]> {
         if self.stage == Stage::NoFly {
             let r_max = self.reach_m(dt_s);
             return (0..n)
@@ -174,7 +203,7 @@ impl MotionModel {
                 })
                 .collect();
         }
-        let mut p = Propagator::new(self, n, rng);
+        let mut p = Propagator::with_replay(self, replay, n, rng);
         p.advance_to(self.t_s + dt_s, rng);
         (0..n).map(|i| [p.x[i], p.y[i]]).collect()
     }
@@ -194,12 +223,52 @@ pub struct Propagator<'a> {
     t_s: f64,
     next_decision_s: f64,
     tables: Vec<(u64, Vec<[f64; 4]>)>,
+    replay: Option<ReplayParticles<'a>>,
 }
 
 impl<'a> Propagator<'a> {
     /// `n` particles at the model's start, each with a first turn drawn for the current
     /// decision interval.
     pub fn new<R: Rng + ?Sized>(model: &'a MotionModel, n: usize, rng: &mut R) -> Self {
+        Self::with_replay(model, None, n, rng)
+    }
+
+    /// As [`Propagator::new`]; when the model has [`MotionModel::replay`] set and
+    /// `replay` holds the obstacle's track and frames with anchors to replay, the particles
+    /// replay stretches of its own past ([`crate::replay`]) instead.
+    pub fn with_replay<R: Rng + ?Sized>(
+        model: &'a MotionModel,
+        replay: Option<(&'a Track, &'a Manoeuvres)>,
+        n: usize,
+        rng: &mut R,
+    ) -> Self {
+        if let (Some(rm), Some((track, man))) = (model.replay, replay)
+            && let Some(rp) = ReplayParticles::new(
+                track,
+                man,
+                &rm.cfg,
+                Novel {
+                    speed_mps: model.speed_mps,
+                    w_max_radps: model.w_max_radps,
+                    decision_interval_s: model.decision_interval_s,
+                },
+                n,
+                rng,
+            )
+        {
+            return Self {
+                model,
+                x: vec![model.position_m[0]; n],
+                y: vec![model.position_m[1]; n],
+                ux: Vec::new(),
+                uy: Vec::new(),
+                level: Vec::new(),
+                t_s: model.t_s,
+                next_decision_s: f64::INFINITY,
+                tables: Vec::new(),
+                replay: Some(rp),
+            };
+        }
         let dti = model.decision_interval_s;
         let level = (0..n)
             .map(|_| model.draw_level(model.last_bin, rng) as u16)
@@ -229,6 +298,7 @@ impl<'a> Propagator<'a> {
             t_s: model.t_s,
             next_decision_s: ((model.t_s / dti).floor() + 1.0) * dti,
             tables: Vec::new(),
+            replay: None,
         }
     }
 
@@ -267,6 +337,13 @@ impl<'a> Propagator<'a> {
 
     /// Advances every particle to `t_s` (no-op if already there or later).
     pub fn advance_to<R: Rng + ?Sized>(&mut self, t_s: f64, rng: &mut R) {
+        if let Some(rp) = &mut self.replay {
+            if t_s > self.t_s {
+                rp.advance_to(t_s - self.model.t_s, &mut self.x, &mut self.y, rng);
+                self.t_s = t_s;
+            }
+            return;
+        }
         if self.model.speed_mps <= 0.0 {
             self.t_s = self.t_s.max(t_s);
             return;

@@ -22,8 +22,9 @@
 
 use crate::estimate::{self, Estimates, EstimatorConfig, TurnSampler, TurnSummary};
 use crate::field::RiskField;
-use crate::motion::MotionModel;
+use crate::motion::{MotionModel, ReplayModel};
 use crate::periodic::{Lap, PeriodicConfig, find_lap};
+use crate::replay::{Manoeuvres, ReplayConfig};
 use crate::risk_map::{ObstacleInput, RiskMap, RiskMapConfig};
 use crate::stage::{Characterizer, Stage, StageChange, StageConfig, TurnHistogram};
 use crate::track::{Observation, ObserveOutcome, Track};
@@ -58,6 +59,10 @@ pub struct PredictorConfig {
     /// Lap search of periodic tours ([`crate::periodic`]); `None` disables it. Not used
     /// with a forced stage. Default on.
     pub periodic: Option<PeriodicConfig>,
+    /// Manoeuvre replay ([`crate::replay`]): once an obstacle off a periodic tour has
+    /// enough history, its own past stretches predict it instead of its stage's model;
+    /// `None` disables it. Not used with a forced stage. Default on.
+    pub replay: Option<ReplayConfig>,
 }
 
 impl Default for PredictorConfig {
@@ -71,6 +76,7 @@ impl Default for PredictorConfig {
             stages: StageConfig::default(),
             forced_stage: None,
             periodic: Some(PeriodicConfig::default()),
+            replay: Some(ReplayConfig::default()),
         }
     }
 }
@@ -128,6 +134,7 @@ struct Obstacle {
     turns: TurnSummary,
     hist: TurnHistogram,
     model: MotionModel,
+    manoeuvres: Manoeuvres,
 }
 
 /// Tracks, characterizes and predicts every moving obstacle of a mission.
@@ -185,6 +192,9 @@ impl Predictor {
         };
         let (out, idx) = ob.track.insert(obs, flag, cfg.position_noise_m);
         if let Some(idx) = idx {
+            if let Some(rc) = &cfg.replay {
+                ob.manoeuvres.update(&ob.track, idx, rc);
+            }
             let changed = ob.sampler.update(&ob.track, idx, &cfg.estimator);
             refresh(ob, cfg, changed > 0);
             self.dirty.insert(id.to_owned());
@@ -251,7 +261,10 @@ impl Predictor {
                 self.periodic_gap_s(),
             ));
         }
-        Some(ob.model.sample_future(dt_s, n, rng))
+        Some(
+            ob.model
+                .sample_future_with_replay(Some((&ob.track, &ob.manoeuvres)), dt_s, n, rng),
+        )
     }
 
     fn periodic_gap_s(&self) -> f64 {
@@ -400,6 +413,7 @@ fn input<'a>(id: &'a str, o: &'a Obstacle) -> ObstacleInput<'a> {
         model: &o.model,
         track: &o.track,
         radius_m: o.track.last().map_or(0.0, |l| l.radius_m),
+        manoeuvres: Some(&o.manoeuvres),
     }
 }
 
@@ -415,6 +429,10 @@ fn new_obstacle(track: Track, sampler: TurnSampler, cfg: &PredictorConfig) -> Ob
         cfg.nofly_speed_mps(),
         &cfg.stages,
     );
+    let mut manoeuvres = Manoeuvres::default();
+    if let Some(rc) = &cfg.replay {
+        manoeuvres.update(&track, 0, rc);
+    }
     let mut ob = Obstacle {
         track,
         sampler,
@@ -423,6 +441,7 @@ fn new_obstacle(track: Track, sampler: TurnSampler, cfg: &PredictorConfig) -> Ob
         turns,
         hist,
         model,
+        manoeuvres,
     };
     refresh(&mut ob, cfg, true);
     ob
@@ -463,6 +482,16 @@ fn refresh(ob: &mut Obstacle, cfg: &PredictorConfig, samples_changed: bool) {
     );
     if cfg.forced_stage.is_none() && stage != Stage::NoFly {
         ob.model.lap = cfg.periodic.and_then(|pc| find_lap(&ob.track, &pc));
+        if ob.model.lap.is_none()
+            && ob.model.speed_mps > 0.0
+            && let Some(rc) = cfg.replay
+            && ob.manoeuvres.ready(&ob.track, &rc)
+        {
+            ob.model.replay = Some(ReplayModel {
+                cfg: rc,
+                max_speed_mps: ob.manoeuvres.max_speed_mps(&ob.track, &rc, 5.0),
+            });
+        }
     }
 }
 

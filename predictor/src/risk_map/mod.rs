@@ -4,7 +4,8 @@
 //!
 //! Per obstacle, particles propagated with its stage's motion model (or, for an obstacle
 //! on a recognized periodic tour, replayed from its earlier lap with a timing and position
-//! spread, [`crate::periodic`]) are splatted with a
+//! spread, [`crate::periodic`]; or, with enough history, flying stretches of its own past,
+//! [`crate::replay`]) are splatted with a
 //! precomputed disc stencil of radius `radius + buffer` (a cell counts when its centre is
 //! within that distance of the particle's cell centre); each particle carries `1/N` of the
 //! mass. A NoFly obstacle is an analytic disc growing at the NoFly speed, evaluated at query
@@ -80,6 +81,8 @@ pub struct ObstacleInput<'a> {
     pub track: &'a Track,
     /// Sphere radius, metres.
     pub radius_m: f64,
+    /// Its frames, for a model that replays its own past ([`crate::replay`]).
+    pub manoeuvres: Option<&'a crate::replay::Manoeuvres>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -47,7 +47,8 @@ impl RiskMap {
         }
         let n = self.cfg.particles;
         let mut rng = ChaCha8Rng::seed_from_u64(self.cfg.seed ^ fnv1a(o.id));
-        let mut prop = Propagator::new(o.model, n, &mut rng);
+        let mut prop =
+            Propagator::with_replay(o.model, o.manoeuvres.map(|m| (o.track, m)), n, &mut rng);
         // A periodic tour's particles: a fixed timing and position deviate each, scaled by
         // the lap's spread at each slice (crate::periodic).
         let lap_z: Vec<[f64; 3]> = if o.model.lap.is_some() {

@@ -21,11 +21,14 @@ pub enum Behaviour {
     Zigzag { w: f64 },
     /// Stands still.
     Stationary,
+    /// Turns steadily at `w` (a constant-turn-rate mover).
+    Circling { w: f64 },
 }
 
 pub fn next_turn(b: Behaviour, prev: f64, rng: &mut ChaCha8Rng) -> f64 {
     match b {
         Behaviour::Straight | Behaviour::Stationary => 0.0,
+        Behaviour::Circling { w } => w,
         Behaviour::Uniform { w } => rng.random_range(-w..w),
         Behaviour::Biased { w } => {
             if rng.random::<f64>() < 0.5 {
