@@ -122,8 +122,15 @@ pub struct AccessArgs {
     #[arg(long, env = "JINK_TLS_KEY", requires = "tls_cert")]
     pub tls_key: Option<PathBuf>,
 
+    /// CPU jobs run at once: plan computations, risk-map builds, replays and pictures
+    /// together (default: one core less than the machine has, at least 1, so that the
+    /// server's own threads, which answer ingest, always keep a core). Plans and the maps
+    /// requests wait for go before maps rebuilt ahead of time.
+    #[arg(long, env = "JINK_CPU_WORKERS")]
+    pub cpu_workers: Option<usize>,
+
     /// Plan computations run at once (default: one core less than the machine has, at
-    /// least 1).
+    /// least 1); they also need a `--cpu-workers` slot.
     #[arg(long, env = "JINK_PLAN_WORKERS")]
     pub plan_workers: Option<usize>,
 
@@ -221,6 +228,10 @@ impl AccessArgs {
                 fly_zone_points: self.max_fly_zone_points,
                 other: self.max_list_items,
             },
+            cpu_workers: self
+                .cpu_workers
+                .unwrap_or_else(crate::cpu::CpuGate::default_slots)
+                .max(1),
             plan_workers: self
                 .plan_workers
                 .unwrap_or_else(crate::limits::PlanPool::default_workers)
@@ -328,6 +339,11 @@ pub fn run(args: ServeArgs) -> ExitCode {
                 },
                 access,
             },
+        );
+        tracing::info!(
+            cpu_workers = state.cpu.slots(),
+            plan_workers = state.settings.access.plan_workers,
+            "CPU budget"
         );
         state.interop.set_format(args.interop_format);
         if let Some(cfg) = link {
