@@ -75,6 +75,14 @@ pub struct ServeArgs {
     #[arg(long, env = "JINK_CPU_JOB_NICE", default_value_t = crate::limits::CPU_JOB_NICE)]
     pub cpu_job_nice: i32,
 
+    /// At most this many glibc malloc arenas (Linux with glibc): memory freed by one
+    /// thread is then reused by the others instead of staying in its own arena, which
+    /// keeps resident memory bounded under load. 0 leaves glibc's default (8 per core).
+    /// Applied by re-executing `serve` once at start with `GLIBC_TUNABLES`; an arena limit
+    /// already in the environment (`GLIBC_TUNABLES`, `MALLOC_ARENA_MAX`) wins.
+    #[arg(long, env = "JINK_MALLOC_ARENA_MAX", default_value_t = DEFAULT_MALLOC_ARENA_MAX)]
+    pub malloc_arena_max: usize,
+
     /// Log format on stderr. Levels come from `RUST_LOG` (default `info`).
     #[arg(long, env = "JINK_LOG_FORMAT", value_enum, default_value = "text")]
     pub log_format: LogFormat,
@@ -279,8 +287,15 @@ pub fn init_logging_with(format: LogFormat, default_filter: &str) {
     };
 }
 
+/// Default of `--malloc-arena-max`: in the overload benchmark 2 arenas held resident
+/// memory to about half of glibc's default without slowing ingest (README, "Overload
+/// benchmark").
+pub const DEFAULT_MALLOC_ARENA_MAX: usize = 2;
+
 /// Runs the service until a shutdown signal.
 pub fn run(args: ServeArgs) -> ExitCode {
+    // First, before any thread exists: this may re-execute the process.
+    super::arenas::bound(args.malloc_arena_max);
     init_logging(args.log_format);
     let Some(rt) = super::runtime(tokio::runtime::Builder::new_multi_thread()) else {
         return ExitCode::FAILURE;
