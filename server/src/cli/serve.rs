@@ -399,3 +399,33 @@ pub fn run(args: ServeArgs) -> ExitCode {
     rt.shutdown_timeout(std::time::Duration::from_secs(1));
     code
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        access: AccessArgs,
+    }
+
+    fn settings(args: &[&str]) -> AccessSettings {
+        let bind: SocketAddr = "127.0.0.1:0".parse().unwrap();
+        Cli::try_parse_from(std::iter::once("jink").chain(args.iter().copied()))
+            .unwrap()
+            .access
+            .settings(&bind)
+    }
+
+    #[test]
+    fn the_cpu_budget_leaves_a_core_by_default_and_takes_at_least_one_job() {
+        assert_eq!(
+            settings(&[]).cpu_workers,
+            crate::cpu::CpuGate::default_slots()
+        );
+        assert_eq!(settings(&["--cpu-workers", "3"]).cpu_workers, 3);
+        assert_eq!(settings(&["--cpu-workers", "0"]).cpu_workers, 1);
+    }
+}
