@@ -8,7 +8,6 @@ use axum::extract::{DefaultBodyLimit, MatchedPath, Request, State};
 use axum::http::StatusCode;
 use axum::middleware::{self, Next};
 use axum::response::{IntoResponse, Response};
-use tokio::sync::Semaphore;
 use tower_http::catch_panic::CatchPanicLayer;
 use tower_http::trace::TraceLayer;
 
@@ -39,6 +38,8 @@ pub struct AccessSettings {
     pub(crate) rates: crate::auth::RateSettings,
     /// Items per request.
     pub(crate) items: crate::limits::ItemLimits,
+    /// CPU jobs (plans, map builds, replays, pictures) at a time (see [`crate::cpu`]).
+    pub(crate) cpu_workers: usize,
     /// Plan computations at a time, and admitted plans waiting for one.
     pub(crate) plan_workers: usize,
     pub(crate) plan_queue: usize,
@@ -55,6 +56,7 @@ impl Default for AccessSettings {
             token_cache: std::time::Duration::from_secs(2),
             rates: crate::auth::RateSettings::default(),
             items: crate::limits::ItemLimits::default(),
+            cpu_workers: crate::cpu::CpuGate::default_slots(),
             plan_workers: crate::limits::PlanPool::default_workers(),
             plan_queue: 16,
             request_timeout: crate::limits::DEFAULT_REQUEST_TIMEOUT,
@@ -82,8 +84,9 @@ pub struct AppState {
     pub(crate) metrics: Arc<Metrics>,
     /// Run-time settings.
     pub(crate) settings: Arc<Settings>,
-    /// Bounds concurrent CPU-heavy jobs (planning, risk maps) run with `spawn_blocking`.
-    pub(crate) cpu: Arc<Semaphore>,
+    /// Bounds concurrent CPU-heavy jobs (planning, risk maps) run with `spawn_blocking`,
+    /// foreground ones first.
+    pub(crate) cpu: Arc<crate::cpu::CpuGate>,
     /// Per-mission live state: predictor and risk-map snapshots (built lazily from the
     /// store).
     pub(crate) live: Arc<crate::live::LiveStates>,
@@ -99,11 +102,10 @@ impl AppState {
     /// State over `store` with default settings.
     pub fn new(store: Store, settings: Settings) -> Self {
         let settings_live = settings.live;
-        let cores = std::thread::available_parallelism().map_or(2, std::num::NonZero::get);
         Self {
             store,
             metrics: Arc::new(Metrics::default()),
-            cpu: Arc::new(Semaphore::new(cores)),
+            cpu: crate::cpu::CpuGate::new(settings.access.cpu_workers),
             live: Arc::new(crate::live::LiveStates::new(settings_live)),
             plans: Arc::new(crate::limits::PlanPool::new(
                 settings.access.plan_workers,
@@ -118,7 +120,8 @@ impl AppState {
         }
     }
 
-    /// Runs CPU-heavy `f` off the async runtime, at most one job per core at a time.
+    /// Runs CPU-heavy `f` off the async runtime once a slot of the CPU budget is free
+    /// (a request waits for it: [`crate::cpu::Priority::Foreground`]).
     ///
     /// # Errors
     /// An internal error if the job panicked.
@@ -126,17 +129,26 @@ impl AppState {
         &self,
         f: impl FnOnce() -> T + Send + 'static,
     ) -> Result<T, ApiError> {
-        let _permit = self
-            .cpu
-            .acquire()
-            .await
-            .map_err(|e| ApiError::Internal(e.to_string()))?;
-        Ok(tokio::task::spawn_blocking(move || {
-            crate::limits::background_priority();
-            f()
-        })
-        .await?)
+        let permit = self.cpu.acquire(crate::cpu::Priority::Foreground).await;
+        run_with(permit, f).await
     }
+}
+
+/// Runs CPU-heavy `f` off the async runtime in the slot `permit` holds (released when `f`
+/// returns or panics).
+///
+/// # Errors
+/// An internal error if the job panicked.
+pub(crate) async fn run_with<T: Send + 'static>(
+    permit: crate::cpu::CpuPermit,
+    f: impl FnOnce() -> T + Send + 'static,
+) -> Result<T, ApiError> {
+    Ok(tokio::task::spawn_blocking(move || {
+        let _permit = permit;
+        crate::limits::background_priority();
+        f()
+    })
+    .await?)
 }
 
 /// The complete router: API routes (all in the OpenAPI document), docs, fallbacks and

@@ -15,6 +15,7 @@ mod api;
 mod app;
 mod auth;
 mod cli;
+mod cpu;
 mod error;
 mod extract;
 mod interop;

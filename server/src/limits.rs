@@ -3,10 +3,12 @@
 //!
 //! - **Plan pool** ([`PlanPool`]): plan computations (create and replay) run with
 //!   `spawn_blocking`, at most `workers` at a time (default: one core less than the
-//!   machine has, at least one, so ingest always keeps a core), with at most `queue` more
-//!   admitted and waiting. A plan request beyond that is refused at once, before any work,
-//!   with 503 and `Retry-After` (the expected wait for the queue to drain, from the recent
-//!   plan durations). Ingest never goes through this pool.
+//!   machine has, at least one), with at most `queue` more admitted and waiting. A plan
+//!   request beyond that is refused at once, before any work, with 503 and `Retry-After`
+//!   (the expected wait for the queue to drain, from the recent plan durations). Ingest
+//!   never goes through this pool. A plan also takes a slot of the CPU budget
+//!   ([`crate::cpu`]) that it shares with risk-map builds, so that plans and maps
+//!   together leave a core to the runtime.
 //! - **Priority**: CPU jobs (plans and risk-map builds, [`PlanTicket::run`] and
 //!   `AppState::run_cpu`) run at a lower scheduling priority than the
 //!   async runtime's threads (nice + [`CPU_JOB_NICE`]), so on a saturated machine the kernel runs ingest first and
@@ -136,12 +138,14 @@ impl PlanPool {
 }
 
 impl PlanTicket {
-    /// Runs the CPU-bound `f` off the async runtime once a worker is free.
+    /// Runs the CPU-bound `f` off the async runtime once a worker and a slot of the CPU
+    /// budget `cpu` are free.
     ///
     /// # Errors
     /// An internal error if the job panicked.
     pub async fn run<T: Send + 'static>(
         self,
+        cpu: &Arc<crate::cpu::CpuGate>,
         f: impl FnOnce() -> T + Send + 'static,
     ) -> Result<T, ApiError> {
         let _worker = self
@@ -152,11 +156,8 @@ impl PlanTicket {
             .await
             .map_err(|e| ApiError::Internal(e.to_string()))?;
         let start = Instant::now();
-        let out = tokio::task::spawn_blocking(move || {
-            background_priority();
-            f()
-        })
-        .await?;
+        let permit = cpu.acquire(crate::cpu::Priority::Foreground).await;
+        let out = crate::app::run_with(permit, f).await?;
         let ms = start.elapsed().as_millis() as u64;
         let old = self.pool.avg_ms.load(Ordering::Relaxed);
         self.pool
@@ -367,7 +368,7 @@ mod tests {
         let job = pool
             .admit()
             .expect("admitted")
-            .run(nice)
+            .run(&crate::cpu::CpuGate::new(1), nice)
             .await
             .expect("job");
         assert_eq!(job.expect("getpriority"), (runtime + CPU_JOB_NICE).min(19));
@@ -405,7 +406,7 @@ mod tests {
         let _b = pool.admit().unwrap();
         let e = pool.admit().unwrap_err();
         assert_eq!(e.status(), axum::http::StatusCode::SERVICE_UNAVAILABLE);
-        assert_eq!(a.run(|| 7).await.unwrap(), 7);
+        assert_eq!(a.run(&crate::cpu::CpuGate::new(1), || 7).await.unwrap(), 7);
         // `a`'s place is free again.
         pool.admit().unwrap();
     }

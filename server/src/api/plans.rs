@@ -241,7 +241,7 @@ async fn create_plan(
     let cancel = CancelOnDrop::default();
     let flag = cancel.flag();
     let computed = ticket
-        .run(move || compute(&m2, &in2, &snap, Some(flag)))
+        .run(&state.cpu, move || compute(&m2, &in2, &snap, Some(flag)))
         .await??;
     // The pool's queue and its hop to a worker thread and back: all but the computation.
     timing.lap_split("pool", "compute", computed.compute_ms);
@@ -337,7 +337,9 @@ async fn replay_plan(
     let cancel = CancelOnDrop::default();
     let flag = cancel.flag();
     let computed = ticket
-        .run(move || compute(&mission, &in2, &snap, Some(flag)))
+        .run(&state.cpu, move || {
+            compute(&mission, &in2, &snap, Some(flag))
+        })
         .await??;
     let replayed = PlanOut {
         written_by: row.written_by.clone(),

@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
+mod arenas;
 pub mod demo;
 pub mod interop;
 pub mod openapi;

@@ -75,6 +75,14 @@ pub struct ServeArgs {
     #[arg(long, env = "JINK_CPU_JOB_NICE", default_value_t = crate::limits::CPU_JOB_NICE)]
     pub cpu_job_nice: i32,
 
+    /// At most this many glibc malloc arenas (Linux with glibc): memory freed by one
+    /// thread is then reused by the others instead of staying in its own arena, which
+    /// keeps resident memory bounded under load. 0 leaves glibc's default (8 per core).
+    /// Applied by re-executing `serve` once at start with `GLIBC_TUNABLES`; an arena limit
+    /// already in the environment (`GLIBC_TUNABLES`, `MALLOC_ARENA_MAX`) wins.
+    #[arg(long, env = "JINK_MALLOC_ARENA_MAX", default_value_t = DEFAULT_MALLOC_ARENA_MAX)]
+    pub malloc_arena_max: usize,
+
     /// Log format on stderr. Levels come from `RUST_LOG` (default `info`).
     #[arg(long, env = "JINK_LOG_FORMAT", value_enum, default_value = "text")]
     pub log_format: LogFormat,
@@ -122,8 +130,15 @@ pub struct AccessArgs {
     #[arg(long, env = "JINK_TLS_KEY", requires = "tls_cert")]
     pub tls_key: Option<PathBuf>,
 
+    /// CPU jobs run at once: plan computations, risk-map builds, replays and pictures
+    /// together (default: one core less than the machine has, at least 1, so that the
+    /// server's own threads, which answer ingest, always keep a core). Plans and the maps
+    /// requests wait for go before maps rebuilt ahead of time.
+    #[arg(long, env = "JINK_CPU_WORKERS")]
+    pub cpu_workers: Option<usize>,
+
     /// Plan computations run at once (default: one core less than the machine has, at
-    /// least 1).
+    /// least 1); they also need a `--cpu-workers` slot.
     #[arg(long, env = "JINK_PLAN_WORKERS")]
     pub plan_workers: Option<usize>,
 
@@ -221,6 +236,10 @@ impl AccessArgs {
                 fly_zone_points: self.max_fly_zone_points,
                 other: self.max_list_items,
             },
+            cpu_workers: self
+                .cpu_workers
+                .unwrap_or_else(crate::cpu::CpuGate::default_slots)
+                .max(1),
             plan_workers: self
                 .plan_workers
                 .unwrap_or_else(crate::limits::PlanPool::default_workers)
@@ -268,8 +287,15 @@ pub fn init_logging_with(format: LogFormat, default_filter: &str) {
     };
 }
 
+/// Default of `--malloc-arena-max`: in the overload benchmark 2 arenas held resident
+/// memory to about half of glibc's default without slowing ingest (README, "Overload
+/// benchmark").
+pub const DEFAULT_MALLOC_ARENA_MAX: usize = 2;
+
 /// Runs the service until a shutdown signal.
 pub fn run(args: ServeArgs) -> ExitCode {
+    // First, before any thread exists: this may re-execute the process.
+    super::arenas::bound(args.malloc_arena_max);
     init_logging(args.log_format);
     let Some(rt) = super::runtime(tokio::runtime::Builder::new_multi_thread()) else {
         return ExitCode::FAILURE;
@@ -329,6 +355,11 @@ pub fn run(args: ServeArgs) -> ExitCode {
                 access,
             },
         );
+        tracing::info!(
+            cpu_workers = state.cpu.slots(),
+            plan_workers = state.settings.access.plan_workers,
+            "CPU budget"
+        );
         state.interop.set_format(args.interop_format);
         if let Some(cfg) = link {
             match crate::interop::link::Upstream::new(cfg) {
@@ -367,4 +398,34 @@ pub fn run(args: ServeArgs) -> ExitCode {
     // Plan computations abandoned after the shutdown grace must not hold the exit.
     rt.shutdown_timeout(std::time::Duration::from_secs(1));
     code
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        access: AccessArgs,
+    }
+
+    fn settings(args: &[&str]) -> AccessSettings {
+        let bind: SocketAddr = "127.0.0.1:0".parse().unwrap();
+        Cli::try_parse_from(std::iter::once("jink").chain(args.iter().copied()))
+            .unwrap()
+            .access
+            .settings(&bind)
+    }
+
+    #[test]
+    fn the_cpu_budget_leaves_a_core_by_default_and_takes_at_least_one_job() {
+        assert_eq!(
+            settings(&[]).cpu_workers,
+            crate::cpu::CpuGate::default_slots()
+        );
+        assert_eq!(settings(&["--cpu-workers", "3"]).cpu_workers, 3);
+        assert_eq!(settings(&["--cpu-workers", "0"]).cpu_workers, 1);
+    }
 }

@@ -12,8 +12,11 @@
 //! - **Maps only where they are read**: a risk map is built for plans and `GET .../risk`
 //!   (which mark the mission's map as in use); `GET .../obstacles` reads the predictor
 //!   alone ([`PredictorView`]). While a mission's map is in use (read within
-//!   [`LiveConfig::map_idle`]), each batch rebuilds it in the background, so the next plan
-//!   finds it ready; a map unread for longer is dropped (the predictor stays) and no longer
+//!   [`LiveConfig::map_idle`]), batches rebuild it in the background, so the next plan
+//!   usually finds it ready. That rebuild waits for a CPU slot at background priority
+//!   (after every plan and every map a request waits for, [`crate::cpu`]), and at most one
+//!   waits per mission: batches arriving meanwhile are built by it, one rebuild for the
+//!   lot. A map unread for longer is dropped (the predictor stays) and no longer
 //!   rebuilt, and at most [`LiveConfig::max_maps`] maps are kept (the least recently read
 //!   dropped first). A dropped map is rebuilt by the next read that needs it, bit for bit
 //!   (it is a pure function of the predictor).
@@ -46,6 +49,7 @@ use std::time::{Duration, Instant};
 use predictor::Predictor;
 
 use crate::app::AppState;
+use crate::cpu::{CpuPermit, Priority};
 use crate::error::ApiError;
 use crate::mission::Mission;
 use crate::store::observations::StoredBatch;
@@ -154,6 +158,11 @@ pub struct MissionLive {
     map_used: Mutex<Option<Instant>>,
     /// Batches applied after the published snapshot's, oldest first: (seq, applied at).
     pending: Mutex<VecDeque<(i64, Instant)>>,
+    /// A background rebuild waits for a CPU slot (it will build every batch applied by
+    /// the time it starts: later batches need not queue another).
+    rebuild_queued: AtomicBool,
+    /// Snapshots built (with a map) since the mission went live.
+    builds: std::sync::atomic::AtomicU64,
 }
 
 impl std::fmt::Debug for MissionLive {
@@ -181,6 +190,8 @@ impl MissionLive {
             last_used: Mutex::new(Instant::now()),
             map_used: Mutex::new(None),
             pending: Mutex::new(VecDeque::new()),
+            rebuild_queued: AtomicBool::new(false),
+            builds: std::sync::atomic::AtomicU64::new(0),
         }
     }
 
@@ -420,16 +431,59 @@ impl MissionLive {
         }
         // Not held here, so that its map can be recycled below.
         drop(cur);
+        let permit = state.cpu.acquire(Priority::Foreground).await;
+        self.build_and_publish(state, seq, predictor, permit).await
+    }
+
+    /// Builds the snapshot of `predictor` (batch `seq`) in `permit`'s CPU slot and
+    /// publishes it. The caller holds the build lock.
+    async fn build_and_publish(
+        &self,
+        state: &AppState,
+        seq: i64,
+        predictor: Arc<Predictor>,
+        permit: CpuPermit,
+    ) -> Result<Arc<Snapshot>, ApiError> {
         let mission = self.mission.clone();
         let spare = state.live.take_spare();
         let snap = Arc::new(
-            state
-                .run_cpu(move || Snapshot::build_reusing(&mission, seq, predictor, spare))
-                .await?,
+            crate::app::run_with(permit, move || {
+                Snapshot::build_reusing(&mission, seq, predictor, spare)
+            })
+            .await?,
         );
+        self.builds.fetch_add(1, Ordering::Relaxed);
         let old = self.publish(snap.clone());
         state.live.recycle(old);
         Ok(snap)
+    }
+
+    /// A background rebuild in the CPU slot `permit` holds: publishes the snapshot of the
+    /// batches applied so far, unless it is current or someone else holds the build or
+    /// writer lock (a build under way, or a catch-up, which starts its own rebuild). It
+    /// never waits while holding the slot: a foreground job holding one of those locks
+    /// may be waiting for that very slot.
+    async fn build_in_background(
+        &self,
+        state: &AppState,
+        permit: CpuPermit,
+    ) -> Result<(), ApiError> {
+        if self.published().seq >= self.applied.load(Ordering::Acquire) {
+            return Ok(());
+        }
+        let Ok(_building) = self.build.try_lock() else {
+            return Ok(());
+        };
+        let (predictor, seq) = match self.writer.try_lock() {
+            Ok(w) => (w.predictor.clone(), w.applied),
+            Err(_) => return Ok(()),
+        };
+        if self.published().seq >= seq {
+            return Ok(());
+        }
+        self.build_and_publish(state, seq, predictor, permit)
+            .await
+            .map(drop)
     }
 }
 
@@ -657,11 +711,20 @@ impl LiveStates {
     }
 }
 
-/// Publishes the snapshot of `live`'s applied batches in the background.
+/// Publishes the snapshot of `live`'s applied batches in the background, at
+/// [`Priority::Background`]: after every plan and every map a request waits for. At most
+/// one rebuild per mission waits for a slot; it covers every batch applied before it
+/// starts, so a burst of batches costs one rebuild, not one each.
 fn spawn_build(state: &AppState, live: Arc<MissionLive>) {
+    if live.rebuild_queued.swap(true, Ordering::AcqRel) {
+        return;
+    }
     let state = state.clone();
     tokio::spawn(async move {
-        if let Err(e) = live.build_current(&state).await {
+        let permit = state.cpu.acquire(Priority::Background).await;
+        // Batches applied from now on may not be in this build: they queue the next one.
+        live.rebuild_queued.store(false, Ordering::Release);
+        if let Err(e) = live.build_in_background(&state, permit).await {
             tracing::warn!(mission = %live.mission.id, error = %e, "snapshot build failed");
         }
     });

@@ -149,3 +149,80 @@ async fn a_plan_takes_the_published_snapshot_while_a_batch_is_young_and_waits_on
     let rebuilt = Snapshot::build(&a, 51, Arc::new(p));
     assert_eq!(cells(&current), cells(&rebuilt));
 }
+
+/// Batch `k` (52, 53, ...) of mission "a": obstacle "0" one tick further on.
+async fn batch_number(state: &AppState, m: &Mission, k: i64) -> StoredBatch {
+    let t = 1_700_000_000.0 + 0.2 * (k - 1) as f64;
+    let rows = [ObservationRow {
+        obstacle_id: "0".into(),
+        t_s: t,
+        lat_deg: 38.145 + 0.0001 * (k - 1) as f64,
+        lon_deg: -76.429,
+        alt_msl_m: 60.0,
+        radius_m: 20.0,
+    }];
+    let batch = state
+        .store
+        .insert_observations(&m.id, &rows, t)
+        .await
+        .expect("insert")
+        .expect("mission");
+    assert_eq!(batch.seq, k);
+    batch
+}
+
+#[tokio::test]
+async fn batches_arriving_while_the_cpu_is_taken_cost_one_background_rebuild_after_the_foreground_work()
+ {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (state, a, _) = two_missions(&dir).await;
+    // The map is in use (read by a plan), so each batch asks for a rebuild.
+    let live = state.live.entry(&a);
+    live.plan_snapshot(&state, Duration::ZERO)
+        .await
+        .expect("snapshot");
+    let built = live.builds.load(Ordering::Relaxed);
+    // Every CPU slot busy with foreground work (a plan computing).
+    let slots: Vec<CpuPermit> = futures_util::future::join_all(
+        (0..state.cpu.slots()).map(|_| state.cpu.acquire(Priority::Foreground)),
+    )
+    .await;
+    for k in 51..=60 {
+        let batch = batch_number(&state, &a, k).await;
+        state.live.apply(&state, &a.id, &batch).await;
+    }
+    // A plan's computation queued now goes before the rebuild the batches queued.
+    let order = Arc::new(Mutex::new(Vec::new()));
+    let fg = {
+        let (state, order, live) = (state.clone(), order.clone(), live.clone());
+        tokio::spawn(async move {
+            let _p = state.cpu.acquire(Priority::Foreground).await;
+            lock(&order).push(live.published().seq);
+        })
+    };
+    for _ in 0..20 {
+        tokio::task::yield_now().await;
+    }
+    assert_eq!(
+        live.published().seq,
+        50,
+        "no rebuild while the CPU is taken"
+    );
+    drop(slots);
+    fg.await.expect("foreground job");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while live.published().seq < 60 {
+        assert!(Instant::now() < deadline, "the rebuild never came");
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    assert_eq!(
+        *lock(&order),
+        [50],
+        "the foreground job ran before the rebuild"
+    );
+    assert_eq!(
+        live.builds.load(Ordering::Relaxed) - built,
+        1,
+        "one rebuild for ten batches"
+    );
+}

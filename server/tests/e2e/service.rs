@@ -155,3 +155,39 @@ fn logs_written_to_a_file_carry_no_colour_escapes() {
         "colour escape codes in a log file: {text:?}"
     );
 }
+
+/// The `GLIBC_TUNABLES` of process `pid` (empty when unset).
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn glibc_tunables(pid: u32) -> String {
+    let environ = std::fs::read(format!("/proc/{pid}/environ")).unwrap();
+    environ
+        .split(|b| *b == 0)
+        .filter_map(|kv| std::str::from_utf8(kv).ok())
+        .find_map(|kv| kv.strip_prefix("GLIBC_TUNABLES="))
+        .unwrap_or_default()
+        .to_string()
+}
+
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+#[test]
+fn serve_bounds_its_malloc_arenas_unless_told_not_to_or_the_environment_already_does() {
+    use crate::support::serve_jink;
+    let dir = tempfile::tempdir().unwrap();
+    let serve = |extra: &[&str]| {
+        let mut args = vec!["serve", "--bind", "127.0.0.1:0"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--database-url", "sqlite://jink.sqlite"]);
+        let (mut child, _) = serve_jink(&args, dir.path());
+        let tunables = glibc_tunables(child.id());
+        let _ = child.kill();
+        let _ = child.wait();
+        tunables
+    };
+    // The default (2), after the re-execution that applied it: same process, same id.
+    assert_eq!(serve(&[]), "glibc.malloc.arena_max=2");
+    assert_eq!(
+        serve(&["--malloc-arena-max", "3"]),
+        "glibc.malloc.arena_max=3"
+    );
+    assert_eq!(serve(&["--malloc-arena-max", "0"]), "");
+}
