@@ -115,17 +115,7 @@ fn coverage(stage: Stage, b: Behaviour, track_s: f64, trials: u64) -> f64 {
         let truth = g.advance(horizon_s);
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let s = p.sample_future("0", horizon_s, 1000, &mut rng).unwrap();
-        let n = s.len() as f64;
-        let mean = [
-            s.iter().map(|q| q[0]).sum::<f64>() / n,
-            s.iter().map(|q| q[1]).sum::<f64>() / n,
-        ];
-        let mut d: Vec<f64> = s
-            .iter()
-            .map(|q| (q[0] - mean[0]).hypot(q[1] - mean[1]))
-            .collect();
-        d.sort_by(f64::total_cmp);
-        let r95 = d[(0.95 * n) as usize];
+        let (mean, r95) = disc95(&s);
         if (truth[0] - mean[0]).hypot(truth[1] - mean[1]) <= r95 {
             hits += 1;
         }
