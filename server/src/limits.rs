@@ -102,12 +102,10 @@ impl PlanPool {
         }
     }
 
-    /// The default worker count: one core less than the machine has, at least one.
+    /// The default worker count: the CPU budget's default, one core less than the machine
+    /// has, at least one.
     pub fn default_workers() -> usize {
-        std::thread::available_parallelism()
-            .map_or(2, std::num::NonZero::get)
-            .saturating_sub(1)
-            .max(1)
+        crate::cpu::CpuGate::default_slots()
     }
 
     /// Admits one plan, or refuses it at once.

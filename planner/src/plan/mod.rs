@@ -506,7 +506,6 @@ pub fn plan_until(
             best_tail = cand.clone();
         }
     }
-    let base_clear = v_base.is_clear(p.safe_risk);
     if p.strategy == Strategy::Bisection && !best.is_clear(p.safe_risk) && !term.should_stop() {
         // The safety net: detours through one or two avoid points before the first fixed
         // item after the first conflict (crate::detour).
@@ -566,7 +565,7 @@ pub fn plan_until(
         }
     }
     if best_tail != base_tail
-        && base_clear
+        && v_base.is_clear(p.safe_risk)
         && v_base.length_m <= best.length_m * (1.0 + p.keep_slack) + p.keep_slack_m
     {
         best = v_base;
