@@ -95,6 +95,12 @@ pub struct RunMetrics {
     pub replan_p95_ms: f64,
     /// Maximum, ms.
     pub replan_max_ms: f64,
+    /// 95th percentile of the live-state update before each replan (feeding the predictor,
+    /// building the live map), ms: work the server does when telemetry arrives, reported
+    /// apart from the replan time ([`crate::strategy::Strategy::take_live_ms`]); 0 for a
+    /// strategy without a live state.
+    #[serde(default)]
+    pub live_p95_ms: f64,
 }
 
 /// A run's result.
@@ -110,9 +116,12 @@ pub struct RunResult {
     pub judge: JudgeReport,
     /// Aircraft track `[t, x, y, z]` every step (empty unless recorded).
     pub track: Vec<[f64; 4]>,
-    /// Strategy latencies, ms.
+    /// Strategy latencies (the plan's part), ms.
     #[serde(skip)]
     pub latencies_ms: Vec<f64>,
+    /// Live-state update latencies, ms ([`RunMetrics::live_p95_ms`]).
+    #[serde(skip)]
+    pub live_ms: Vec<f64>,
 }
 
 /// Percentile by nearest rank of an unsorted slice (0 for an empty one).
@@ -149,6 +158,7 @@ pub fn run_with_streams(
     let mut next_decide = 0.0;
     let mut received = vec![0usize; streams.len()];
     let mut latencies_ms = Vec::new();
+    let mut live_ms = Vec::new();
     let mut track = Vec::new();
     let judge_every = ((1.0 / cfg.judge_rate_hz) / cfg.dt_s).round().max(1.0) as usize;
     let mut judge_tel = vec![(0.0, ap.state.p_m)];
@@ -193,7 +203,10 @@ pub fn run_with_streams(
             };
             let t0 = Instant::now();
             let cmd = strat.decide(&view);
-            latencies_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+            let total_ms = t0.elapsed().as_secs_f64() * 1e3;
+            let live = strat.take_live_ms();
+            latencies_ms.push(total_ms - live.unwrap_or(0.0));
+            live_ms.extend(live);
             match cmd {
                 Command::Keep => {}
                 Command::Replace(s) => {
@@ -275,6 +288,7 @@ pub fn run_with_streams(
         replan_p50_ms: percentile(&latencies_ms, 0.5),
         replan_p95_ms: percentile(&latencies_ms, 0.95),
         replan_max_ms: latencies_ms.iter().copied().fold(0.0, f64::max),
+        live_p95_ms: percentile(&live_ms, 0.95),
     };
     RunResult {
         seed: scenario.seed,
@@ -283,6 +297,7 @@ pub fn run_with_streams(
         judge: jr,
         track,
         latencies_ms,
+        live_ms,
     }
 }
 

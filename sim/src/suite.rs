@@ -87,6 +87,13 @@ pub struct SummaryRow {
     pub replan_p95_ms: f64,
     /// Maximum, ms.
     pub replan_max_ms: f64,
+    /// Median live-state update before a replan (feeding the predictor, building the live
+    /// map: the server's work per telemetry batch, not per plan), ms.
+    #[serde(default)]
+    pub live_p50_ms: f64,
+    /// 95th percentile, ms.
+    #[serde(default)]
+    pub live_p95_ms: f64,
     /// Simulated mission seconds.
     pub sim_s: f64,
     /// Wall seconds spent in these runs (summed over threads).
@@ -190,6 +197,10 @@ fn summarise(
         .iter()
         .flat_map(|(_, r, _)| r.latencies_ms.iter().copied())
         .collect();
+    let live: Vec<f64> = rs
+        .iter()
+        .flat_map(|(_, r, _)| r.live_ms.iter().copied())
+        .collect();
     let clear: Vec<f64> = rs
         .iter()
         .map(|(_, r, _)| r.metrics.min_clearance_m)
@@ -223,6 +234,8 @@ fn summarise(
         replan_p50_ms: percentile(&lat, 0.5),
         replan_p95_ms: percentile(&lat, 0.95),
         replan_max_ms: lat.iter().copied().fold(0.0, f64::max),
+        live_p50_ms: percentile(&live, 0.5),
+        live_p95_ms: percentile(&live, 0.95),
         sim_s: rs.iter().map(|(_, r, _)| r.metrics.mission_time_s).sum(),
         cpu_s: rs.iter().map(|(_, _, c)| c).sum(),
     }

@@ -6,6 +6,8 @@ use sim::strategy::StrategyKind;
 
 fn strip_latency(mut r: sim::run::RunResult) -> sim::run::RunResult {
     r.latencies_ms.clear();
+    r.live_ms.clear();
+    r.metrics.live_p95_ms = 0.0;
     r.metrics.replan_p50_ms = 0.0;
     r.metrics.replan_p95_ms = 0.0;
     r.metrics.replan_max_ms = 0.0;
@@ -20,11 +22,18 @@ fn the_same_seed_reproduces_a_run_exactly() {
         StrategyKind::ConstantVelocity,
         StrategyKind::BisectionAuto,
     ] {
-        let a = strip_latency(run(
-            &generate(Family::Mixed, 11, &p),
-            k,
-            &RunConfig::default(),
-        ));
+        let a = run(&generate(Family::Mixed, 11, &p), k, &RunConfig::default());
+        // The Monte Carlo strategy times its live-state update (predictor and map, the
+        // server's per-batch work) apart from the plan, once per replan; the others have
+        // no live state.
+        if k == StrategyKind::BisectionAuto {
+            assert_eq!(a.live_ms.len(), a.latencies_ms.len());
+            assert_eq!(a.latencies_ms.len(), a.metrics.replans);
+            assert!(a.metrics.live_p95_ms > 0.0, "{:?}", a.metrics);
+        } else {
+            assert!(a.live_ms.is_empty(), "{}", k.name());
+        }
+        let a = strip_latency(a);
         let b = strip_latency(run(
             &generate(Family::Mixed, 11, &p),
             k,

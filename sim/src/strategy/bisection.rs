@@ -5,6 +5,10 @@
 //! schedule, 60 s horizon, 300 m margin) against the same live map the server keeps
 //! ([`planner::live_map`]: anchored at the newest observation, every fresh obstacle, no
 //! threat filter). The predictor's stage is either forced (to compare stages) or automatic.
+//! As in the server, the live state (predictor and map) is brought up to date first and the
+//! plan then reads the built map ([`planner::Dynamic::Map`]); the time of the first part is
+//! reported apart from the plan's ([`Strategy::take_live_ms`]), because the server does it
+//! when observations arrive, not while a plan request waits.
 //! Plans run without a deadline so that a run is reproducible bit for bit; the plan seed is
 //! derived from the run seed and the call count.
 
@@ -33,6 +37,7 @@ pub struct Bisection {
     pub period_s: f64,
     seed: u64,
     calls: u64,
+    live_ms: Option<f64>,
 }
 
 impl Bisection {
@@ -46,6 +51,7 @@ impl Bisection {
             period_s: 1.0,
             seed,
             calls: 0,
+            live_ms: None,
         }
     }
 
@@ -60,7 +66,12 @@ impl Strategy for Bisection {
         self.period_s
     }
 
+    fn take_live_ms(&mut self) -> Option<f64> {
+        self.live_ms.take()
+    }
+
     fn decide(&mut self, view: &View<'_>) -> Command {
+        let started = std::time::Instant::now();
         self.fed.resize(view.tracks.len(), 0);
         for (i, track) in view.tracks.iter().enumerate() {
             let id = i.to_string();
@@ -77,11 +88,29 @@ impl Strategy for Bisection {
         }
         self.calls += 1;
         let seed = planner::plan::leg_seed(self.seed, self.calls as usize, 0);
-        super::replan_command(
-            view,
-            planner::Dynamic::Predictor(&self.predictor),
-            &self.config,
-            seed,
-        )
+        // The server's live state: the map built from the predictor (in the server, in the
+        // background when a batch arrives), then the plan on it.
+        let live = planner::live_map(&self.predictor, view.mission, &self.config);
+        let obstacles: Vec<predictor::ObstacleSummary> = self.predictor.obstacles().collect();
+        self.live_ms = Some(started.elapsed().as_secs_f64() * 1e3);
+        match live {
+            Ok(Some(live)) => super::replan_command(
+                view,
+                planner::Dynamic::Map {
+                    map: &live.map,
+                    obstacles: &obstacles,
+                },
+                &self.config,
+                seed,
+            ),
+            Ok(None) => super::replan_command(view, planner::Dynamic::None, &self.config, seed),
+            // A degenerate mission: the plan reports it (and the stack is kept).
+            Err(_) => super::replan_command(
+                view,
+                planner::Dynamic::Predictor(&self.predictor),
+                &self.config,
+                seed,
+            ),
+        }
     }
 }

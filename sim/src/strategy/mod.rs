@@ -70,6 +70,14 @@ pub trait Strategy: Send {
     }
     /// Decides from what the aircraft would know.
     fn decide(&mut self, view: &View<'_>) -> Command;
+    /// Milliseconds of the last [`Strategy::decide`] spent on work `jink serve` does when
+    /// obstacle telemetry arrives, not while it answers a plan request: feeding the
+    /// predictor and building the live risk map (the server keeps both in its live state
+    /// and rebuilds the map in the background per batch). The run reports the rest of the
+    /// call as the replan time, this part separately. `None`: no such work.
+    fn take_live_ms(&mut self) -> Option<f64> {
+        None
+    }
 }
 
 /// The predictor stage a Monte Carlo bisection run is forced to.
