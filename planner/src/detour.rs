@@ -36,6 +36,11 @@ pub struct DetourParams {
     pub hold_radii_r: [f64; 2],
     /// Avoid points per hold circle. Default 6 (a 60 degree turn at each).
     pub hold_points: usize,
+    /// Turns of the escape manoeuvres ([`escape_candidates`]), degrees either side.
+    /// Default 0, 30, ..., 180.
+    pub escape_turns_deg: [f64; 7],
+    /// Straight runs after the escape turn, metres. Default 60, 150, 300.
+    pub escape_runs_m: [f64; 3],
 }
 
 impl Default for DetourParams {
@@ -46,6 +51,8 @@ impl Default for DetourParams {
             max_bearing_deg: 160.0,
             hold_radii_r: [1.5, 2.5],
             hold_points: 6,
+            escape_turns_deg: [0.0, 30.0, 60.0, 90.0, 120.0, 150.0, 180.0],
+            escape_runs_m: [60.0, 150.0, 300.0],
         }
     }
 }
@@ -204,6 +211,58 @@ pub fn hold_candidates(
     out
 }
 
+/// Escape manoeuvres for danger (a conflict within the near window that no detour clears,
+/// [`crate::PlanParams::danger_risk`]): from `from` at compass heading `heading_rad`, turn
+/// at `turn_radius_m` by each of `turn_deg` to either side, then fly straight each of
+/// `run_m`; one avoid point where that ends, then each of `tails`. A fixed wing pursuing
+/// that point flies exactly the turn and the run. Unlike the lattice these may leave the
+/// fly zone (the danger ranking puts a near-term collision above a boundary excursion);
+/// a point inside a cylinder at `alt_m` is not proposed. Deterministic.
+#[allow(clippy::too_many_arguments)]
+pub fn escape_candidates(
+    from: Point,
+    heading_rad: f64,
+    tails: &[&[StackItem]],
+    alt_m: f64,
+    turn_radius_m: f64,
+    cylinders: &[Cylinder],
+    turn_deg: &[f64],
+    run_m: &[f64],
+) -> Vec<Vec<StackItem>> {
+    let th = std::f64::consts::FRAC_PI_2 - heading_rad;
+    let r = turn_radius_m.max(1.0);
+    let mut out = Vec::new();
+    for &deg in turn_deg {
+        for side in [1.0f64, -1.0] {
+            if deg == 0.0 && side < 0.0 {
+                continue;
+            }
+            let phi = side * deg.to_radians();
+            // The arc's end: centre to the side, swept by phi.
+            let c = add(from, scale([-th.sin() * side, th.cos() * side], r));
+            let start = th - side * std::f64::consts::FRAC_PI_2;
+            let a = start + phi;
+            let arc_end = add(c, scale([a.cos(), a.sin()], r));
+            let dir = th + phi;
+            for &run in run_m {
+                let q = add(arc_end, scale([dir.cos(), dir.sin()], run));
+                if cylinders
+                    .iter()
+                    .any(|cy| cy.matters_at(alt_m) && dist(cy.center_m, q) < cy.radius_m)
+                {
+                    continue;
+                }
+                for tail in tails {
+                    let mut cand = vec![StackItem::avoid(q, alt_m)];
+                    cand.extend_from_slice(tail);
+                    out.push(cand);
+                }
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -340,5 +399,52 @@ mod tests {
         );
         assert_eq!(c.len(), 1, "{c:?}");
         assert!(c[0].iter().all(|it| it.p_m[0] <= 0.0 + 1e-9));
+    }
+
+    #[test]
+    fn an_escape_turns_at_the_turn_radius_then_runs_straight() {
+        // Heading east (compass 90 degrees) at the origin, turn radius 40 m: a quarter turn
+        // left ends at (40, 40) heading north, a quarter turn right at (40, -40) heading
+        // south; 150 m on, the avoid points are (40, 190) and (40, -190). No turn: straight
+        // east. Each is followed by the tail.
+        let tail = vec![StackItem::mission(1, [2000.0, 0.0], 100.0)];
+        let c = escape_candidates(
+            [0.0, 0.0],
+            std::f64::consts::FRAC_PI_2,
+            &[&tail],
+            100.0,
+            40.0,
+            &[],
+            &[0.0, 90.0],
+            &[150.0],
+        );
+        let firsts: Vec<Point> = c.iter().map(|t| t[0].p_m).collect();
+        let near = |p: Point, q: Point| dist(p, q) < 1e-9;
+        assert_eq!(c.len(), 3, "{firsts:?}");
+        for want in [[150.0, 0.0], [40.0, 190.0], [40.0, -190.0]] {
+            assert!(
+                firsts.iter().any(|&p| near(p, want)),
+                "{want:?} not in {firsts:?}"
+            );
+        }
+        assert!(c.iter().all(|t| t.len() == 2 && t[1] == tail[0]));
+        // A point inside a cylinder is not proposed.
+        let cyl = Cylinder {
+            center_m: [40.0, 190.0],
+            radius_m: 20.0,
+            top_m: 200.0,
+        };
+        let c = escape_candidates(
+            [0.0, 0.0],
+            std::f64::consts::FRAC_PI_2,
+            &[&tail],
+            100.0,
+            40.0,
+            &[cyl],
+            &[90.0],
+            &[150.0],
+        );
+        assert_eq!(c.len(), 1);
+        assert!(near(c[0][0].p_m, [40.0, -190.0]));
     }
 }

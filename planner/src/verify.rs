@@ -158,15 +158,33 @@ impl Verification {
     }
 
     /// Orders two verifications of candidate routes: fewer cylinders crossed by the
-    /// polyline, then fewer hard violations, then clear
-    /// before unclear, then (both unclear) lower near-term peak, lower peak, lower exposure;
-    /// then shorter. True when `self` is strictly better than `other`.
-    pub fn better_than(&self, other: &Verification, safe_risk: f64) -> bool {
+    /// polyline, then fewer cylinders entered by a flown path and unreachable items; then,
+    /// in danger (either route's near-term peak risk above `danger_risk`), the lower
+    /// near-term peak, before fly-zone exits; then fewer fly-zone exits, clear before
+    /// unclear, then (both unclear) lower near-term peak, lower graded peak, lower
+    /// exposure; then shorter. True when `self` is strictly better than `other`.
+    ///
+    /// The danger rule puts a collision expected within [`VerifyParams::near_s`] above a
+    /// boundary excursion: a hit costs a team about fifteen minutes of flight, and an
+    /// aircraft cornered against the fly zone's edge by a sphere otherwise flew into it
+    /// (issue 10, Webster Field with 10 mixed spheres: 8 of 40 runs hit a sphere). Pass a
+    /// `danger_risk` above 1 to rank every fly-zone exit as a hard violation.
+    pub fn better_than(&self, other: &Verification, safe_risk: f64, danger_risk: f64) -> bool {
         // A route whose legs cross a cylinder is worse than one whose legs pass it and
         // only a modelled flight clips it (the flight models differ; the legs do not).
         if self.polyline_cylinder_hits != other.polyline_cylinder_hits {
             return self.polyline_cylinder_hits < other.polyline_cylinder_hits;
         }
+        let flown = |v: &Verification| v.cylinder_hits + usize::from(v.unreachable.is_some());
+        if flown(self) != flown(other) {
+            return flown(self) < flown(other);
+        }
+        if self.near_peak_risk.max(other.near_peak_risk) > danger_risk
+            && (self.near_peak_risk - other.near_peak_risk).abs() > 1e-9
+        {
+            return self.near_peak_risk < other.near_peak_risk;
+        }
+        // Cylinders and unreachable items are equal here: this counts fly-zone exits.
         if self.hard() != other.hard() {
             return self.hard() < other.hard();
         }
@@ -743,6 +761,44 @@ mod tests {
         assert!((far.graded_peak_risk - want).abs() < 0.01, "{far:?}");
         // A far band is still worse than no band at all when lengths are equal.
         let clean = check(&NoRisk, &[], &s, &tail);
-        assert!(!far.better_than(&clean, 0.05));
+        assert!(!far.better_than(&clean, 0.05, 0.25));
+    }
+
+    #[test]
+    fn in_danger_the_near_term_risk_ranks_before_the_fly_zone_never_before_cylinders() {
+        let inside = Verification {
+            near_peak_risk: 0.9,
+            graded_peak_risk: 0.9,
+            peak_risk: 0.9,
+            length_m: 1000.0,
+            ..Verification::default()
+        };
+        let out = Verification {
+            zone_exits: 2,
+            length_m: 1500.0,
+            ..Verification::default()
+        };
+        // Danger (0.9 > 0.25): leaving the zone beats flying into the obstacle.
+        assert!(out.better_than(&inside, 0.05, 0.25));
+        assert!(!inside.better_than(&out, 0.05, 0.25));
+        // Rule off, or no danger (0.2 <= 0.25): the fly zone is a hard limit.
+        assert!(inside.better_than(&out, 0.05, 2.0));
+        let mild = Verification {
+            near_peak_risk: 0.2,
+            graded_peak_risk: 0.2,
+            ..inside
+        };
+        assert!(mild.better_than(&out, 0.05, 0.25));
+        // A cylinder is never traded for the near-term risk.
+        let through_cylinder = Verification {
+            cylinder_hits: 1,
+            ..out
+        };
+        assert!(inside.better_than(&through_cylinder, 0.05, 0.25));
+        let polyline_cylinder = Verification {
+            polyline_cylinder_hits: 1,
+            ..through_cylinder
+        };
+        assert!(inside.better_than(&polyline_cylinder, 0.05, 0.25));
     }
 }

@@ -485,3 +485,71 @@ fn a_sphere_sweeping_across_a_corridor_is_waited_for() {
     let q = plan(&PlanRequest { params, ..req }, &sphere).unwrap();
     assert_ne!(q.outcome, PlanOutcome::Exact, "{q:?}");
 }
+
+/// Several [`Sweeper`]s: risk 1 inside any of them.
+struct Sweepers(Vec<Sweeper>);
+
+impl predictor::RiskField for Sweepers {
+    fn risk(&self, p: [f64; 2], t: f64) -> f64 {
+        self.0
+            .iter()
+            .map(|s| predictor::RiskField::risk(s, p, t))
+            .fold(0.0, f64::max)
+    }
+}
+
+#[test]
+fn cornered_in_the_fly_zone_the_plan_escapes_out_of_it_rather_than_into_a_sphere() {
+    // The fly zone is a corridor 80 m wide (y from -40 to 40) that the aircraft flies east
+    // along its middle at 20 m/s. Two spheres of 100 m radius, wider than the corridor,
+    // close in along it from 230 m ahead and behind at 12 m/s: within the 10 s near window
+    // the gap between them shrinks to 36 m, less than any turn of a 40 m turn radius, so
+    // every route inside the corridor flies into one. Turning out of the corridor is clear.
+    let mut mission = common::one_leg_mission([-1000.0, -40.0], [3000.0, 40.0]);
+    mission.waypoints = common::waypoints_at_100m(&[[-500.0, 0.0], [2000.0, 0.0]]);
+    let stack = mission_stack(&mission);
+    let spheres = Sweepers(vec![
+        Sweeper {
+            p0: [230.0, 0.0],
+            v: [-12.0, 0.0],
+            r_m: 100.0,
+        },
+        Sweeper {
+            p0: [-230.0, 0.0],
+            v: [12.0, 0.0],
+            r_m: 100.0,
+        },
+    ]);
+    let req = static_request(&mission, &stack);
+    // Checked independently: the route flown at 20 m/s, every metre, against both spheres.
+    let gap = |p: &planner::Plan| {
+        let r = route(&req.state, &p.items, p.current_index);
+        spheres
+            .0
+            .iter()
+            .map(|s| clearance(&r, 0.0, 20.0, s.r_m, |t| s.at(t)))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let p = plan(&req, &spheres).unwrap();
+    assert!(
+        gap(&p) > 0.0,
+        "passes {:.1} m inside a sphere: {p:?}",
+        gap(&p)
+    );
+    // It leaves the fly zone to do so, and says the plan is not clear.
+    assert!(p.verification.zone_exits > 0, "{p:?}");
+    assert_eq!(p.outcome, PlanOutcome::NoSafePath, "{p:?}");
+    assert!(p.items.iter().any(|i| i.p_m == [2000.0, 0.0]));
+    // With the fly zone ranked above the danger (and no escapes) it stays inside and
+    // flies into a sphere: the scenario needs the rule.
+    let params = PlanParams {
+        danger_risk: 2.0,
+        ..PlanParams::default()
+    };
+    let q = plan(&PlanRequest { params, ..req }, &spheres).unwrap();
+    assert!(
+        gap(&q) < 0.0,
+        "clear {:.1} m without the rule: {q:?}",
+        gap(&q)
+    );
+}
