@@ -145,7 +145,9 @@ pub struct PlanParams {
     /// within [`VerifyParams::near_s`] stays above it after the detour net, escape
     /// manoeuvres are tried ([`crate::detour::escape_candidates`]), and routes are ranked
     /// by that near-term risk before fly-zone exits ([`Verification::better_than`]): a hit
-    /// costs more than a boundary excursion. Above 1: off. Default 0.25 (issue 10,
+    /// costs more than a boundary excursion. Escapes are tried only with the aircraft in a
+    /// fly zone or within reach of one (two turn radii plus the longest escape run). Above
+    /// 1: off. Default 0.25 (issue 10,
     /// Webster Field with 10 mixed spheres, 80 runs: 67 clean -> 79 clean, time outside
     /// the fly zone 28 -> 36 s a run).
     pub danger_risk: f64,
@@ -539,7 +541,21 @@ pub fn plan_until(
                 }
             }
         }
-        if best.near_peak_risk > p.danger_risk && !term.should_stop() {
+        // Escapes are for an aircraft in or at the edge of its fly zone: from farther out
+        // (lost, or bad telemetry) every candidate route is long and verifying dozens of
+        // them costs seconds for nothing.
+        let escape_reach = 2.0 * turn_r
+            + p.detour
+                .escape_runs_m
+                .iter()
+                .fold(0.0, |a, &b| f64::max(a, b));
+        let near_zone = zones.is_unbounded()
+            || zones.contains(s.p_m)
+            || zones
+                .polygons()
+                .iter()
+                .any(|z| z.boundary_distance(s.p_m) <= escape_reach);
+        if best.near_peak_risk > p.danger_risk && near_zone && !term.should_stop() {
             // Danger: a conflict within the near window that no detour clears. Escape
             // manoeuvres (hard turns, then straight), which may leave the fly zone; the
             // ranking puts the near-term risk before the fly zone here.
