@@ -408,16 +408,20 @@ mod tests {
         // south; 150 m on, the avoid points are (40, 190) and (40, -190). No turn: straight
         // east. Each is followed by the tail.
         let tail = vec![StackItem::mission(1, [2000.0, 0.0], 100.0)];
-        let c = escape_candidates(
-            [0.0, 0.0],
-            std::f64::consts::FRAC_PI_2,
-            &[&tail],
-            100.0,
-            40.0,
-            &[],
-            &[0.0, 90.0],
-            &[150.0],
-        );
+        let east = std::f64::consts::FRAC_PI_2;
+        let escapes = |cylinders: &[Cylinder], turns: &[f64]| {
+            escape_candidates(
+                [0.0, 0.0],
+                east,
+                &[&tail],
+                100.0,
+                40.0,
+                cylinders,
+                turns,
+                &[150.0],
+            )
+        };
+        let c = escapes(&[], &[0.0, 90.0]);
         let firsts: Vec<Point> = c.iter().map(|t| t[0].p_m).collect();
         let near = |p: Point, q: Point| dist(p, q) < 1e-9;
         assert_eq!(c.len(), 3, "{firsts:?}");
@@ -434,16 +438,7 @@ mod tests {
             radius_m: 20.0,
             top_m: 200.0,
         };
-        let c = escape_candidates(
-            [0.0, 0.0],
-            std::f64::consts::FRAC_PI_2,
-            &[&tail],
-            100.0,
-            40.0,
-            &[cyl],
-            &[90.0],
-            &[150.0],
-        );
+        let c = escapes(&[cyl], &[90.0]);
         assert_eq!(c.len(), 1);
         assert!(near(c[0][0].p_m, [40.0, -190.0]));
     }

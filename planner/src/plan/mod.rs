@@ -310,6 +310,24 @@ pub enum PlanError {
     RiskMap(String),
 }
 
+/// Where a manoeuvre from the aircraft (a hold, an escape) starts: the altitude it is
+/// flown at (the aircraft's, or the first item's when lower) and the routes to resume
+/// after it (the best so far, and the stack as flown when that differs).
+fn manoeuvre_start<'a>(
+    s: &AircraftState,
+    best_tail: &'a [StackItem],
+    base_tail: &'a [StackItem],
+) -> (f64, Vec<&'a [StackItem]>) {
+    let alt = best_tail
+        .first()
+        .map_or(s.alt_m, |it| s.alt_m.min(it.alt_m));
+    let mut tails = vec![best_tail];
+    if base_tail != best_tail {
+        tails.push(base_tail);
+    }
+    (alt, tails)
+}
+
 /// SplitMix64 finaliser: decorrelates derived seeds.
 fn mix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -559,13 +577,7 @@ pub fn plan_until(
             // Danger: a conflict within the near window that no detour clears. Escape
             // manoeuvres (hard turns, then straight), which may leave the fly zone; the
             // ranking puts the near-term risk before the fly zone here.
-            let alt = best_tail
-                .first()
-                .map_or(s.alt_m, |it| s.alt_m.min(it.alt_m));
-            let mut tails: Vec<&[StackItem]> = vec![&best_tail];
-            if base_tail != best_tail {
-                tails.push(&base_tail);
-            }
+            let (alt, tails) = manoeuvre_start(s, &best_tail, &base_tail);
             let cands = escape_candidates(
                 s.p_m,
                 s.heading_rad,
@@ -594,13 +606,7 @@ pub fn plan_until(
         }
         if p.hold && !best.is_clear(p.safe_risk) && !term.should_stop() {
             // Nothing bends round it: wait for it (a hold circle, then the best route).
-            let alt = best_tail
-                .first()
-                .map_or(s.alt_m, |it| s.alt_m.min(it.alt_m));
-            let mut tails: Vec<&[StackItem]> = vec![&best_tail];
-            if base_tail != best_tail {
-                tails.push(&base_tail);
-            }
+            let (alt, tails) = manoeuvre_start(s, &best_tail, &base_tail);
             let cands = hold_candidates(
                 s.p_m,
                 s.heading_rad,
