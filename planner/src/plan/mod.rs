@@ -310,6 +310,35 @@ pub enum PlanError {
     RiskMap(String),
 }
 
+/// Verifies each of `cands` that keeps every fixed item, until `term` says stop, and keeps
+/// the best so far in `best` (its verification and route). True when `term` stopped it.
+fn keep_best(
+    cands: Vec<Vec<StackItem>>,
+    verify: &dyn Fn(&[StackItem]) -> Verification,
+    keeps_fixed: &dyn Fn(&[StackItem]) -> bool,
+    term: &Termination,
+    p: &PlanParams,
+    best: (&mut Verification, &mut Vec<StackItem>),
+    evaluations: &mut u64,
+) -> bool {
+    let (best, best_tail) = best;
+    for cand in cands {
+        if term.should_stop() {
+            return true;
+        }
+        if !keeps_fixed(&cand) {
+            continue;
+        }
+        *evaluations += 1;
+        let v = verify(&cand);
+        if v.better_than(best, p.safe_risk, p.danger_risk) {
+            *best = v;
+            *best_tail = cand;
+        }
+    }
+    false
+}
+
 /// Where a manoeuvre from the aircraft (a hold, an escape) starts: the altitude it is
 /// flown at (the aircraft's, or the first item's when lower) and the routes to resume
 /// after it (the best so far, and the stack as flown when that differs).
@@ -541,23 +570,18 @@ pub fn plan_until(
         let target = first_fixed_after_conflict(&best_tail, &best, s, speed);
         if let Some(target) = target {
             let alt = s.alt_m.min(best_tail[target].alt_m);
-            for cand in detour_candidates(
+            let cands = detour_candidates(
                 s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.prepass, &p.detour,
-            ) {
-                if term.should_stop() {
-                    timed_out = true;
-                    break;
-                }
-                if !keeps_fixed(&cand) {
-                    continue;
-                }
-                evaluations += 1;
-                let v = verify(&cand);
-                if v.better_than(&best, p.safe_risk, p.danger_risk) {
-                    best = v;
-                    best_tail = cand;
-                }
-            }
+            );
+            timed_out |= keep_best(
+                cands,
+                &verify,
+                &keeps_fixed,
+                term,
+                p,
+                (&mut best, &mut best_tail),
+                &mut evaluations,
+            );
         }
         // Escapes are for an aircraft in or at the edge of its fly zone: from farther out
         // (lost, or bad telemetry) every candidate route is long and verifying dozens of
@@ -588,21 +612,15 @@ pub fn plan_until(
                 &p.detour.escape_turns_deg,
                 &p.detour.escape_runs_m,
             );
-            for cand in cands {
-                if term.should_stop() {
-                    timed_out = true;
-                    break;
-                }
-                if !keeps_fixed(&cand) {
-                    continue;
-                }
-                evaluations += 1;
-                let v = verify(&cand);
-                if v.better_than(&best, p.safe_risk, p.danger_risk) {
-                    best = v;
-                    best_tail = cand;
-                }
-            }
+            timed_out |= keep_best(
+                cands,
+                &verify,
+                &keeps_fixed,
+                term,
+                p,
+                (&mut best, &mut best_tail),
+                &mut evaluations,
+            );
         }
         if p.hold && !best.is_clear(p.safe_risk) && !term.should_stop() {
             // Nothing bends round it: wait for it (a hold circle, then the best route).
