@@ -214,7 +214,9 @@ pub struct Estimates {
     /// Tightest demonstrated turn radius (low quantile, floored), metres; `None` when no
     /// turn has been demonstrated.
     pub min_turn_radius_m: Option<f64>,
-    /// Turn-rate capability used by the models, degrees per second (0 when stationary).
+    /// Turn-rate capability used by the models at the current speed, degrees per second
+    /// (0 when stationary): the demonstrated capability, at most the demonstrated lateral
+    /// acceleration over the current speed (see [`TurnSummary::lat_accel_max_mps2`]).
     pub turn_rate_max_dps: f64,
     /// Most recent signed turn-rate sample, degrees per second, counter-clockwise (left)
     /// positive.
@@ -233,6 +235,15 @@ pub struct TurnSummary {
     /// Turn-rate capability: mean sample speed over the tightest radius, divided by
     /// `1 - turn_radius_quantile` (see the source), at least the floor, rad/s.
     pub w_max_radps: f64,
+    /// Lateral-acceleration capability: the `1 - turn_radius_quantile` quantile of the
+    /// samples' `speed^2 / radius`, divided by `1 - turn_radius_quantile` like the turn
+    /// rate, m/s^2; `None` with no samples. An obstacle that slows to turn (the judges'
+    /// spline tours stop and reverse) demonstrates a tight radius at a walking pace; at its
+    /// cruising speed the same turn would need many g, so the models turn at most
+    /// `lat_accel_max_mps2 / speed` there (issue 10: a sphere cruising straight at 35 m/s
+    /// was given 220 deg/s, its particles spun in place and the near-term map lost it).
+    /// For an obstacle at constant speed both capabilities are the same.
+    pub lat_accel_max_mps2: Option<f64>,
     /// Most recent turn rate, rad/s.
     pub last_omega_radps: Option<f64>,
     /// Mean turn rate over the window, rad/s.
@@ -262,9 +273,23 @@ impl TurnSummary {
         let w_max_radps = min_turn_radius_m.map_or(floor, |r| {
             (speed / r / (1.0 - cfg.turn_radius_quantile)).max(floor)
         });
+        let mut accel: Vec<f64> = window
+            .iter()
+            .map(|s| {
+                if s.radius_m.is_finite() {
+                    s.speed_mps * s.speed_mps / s.radius_m.max(cfg.turn_radius_floor_m)
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        accel.sort_by(f64::total_cmp);
+        let hi = ((accel.len() - 1) as f64 * (1.0 - cfg.turn_radius_quantile)).round() as usize;
+        let lat_accel_max_mps2 = Some(accel[hi] / (1.0 - cfg.turn_radius_quantile));
         Self {
             min_turn_radius_m,
             w_max_radps,
+            lat_accel_max_mps2,
             last_omega_radps: window.last().map(|s| s.omega_radps),
             mean_omega_radps: Some(window.iter().map(|s| s.omega_radps).sum::<f64>() / n),
         }
@@ -295,12 +320,17 @@ pub fn estimate(track: &Track, turns: &TurnSummary, cfg: &EstimatorConfig) -> Op
     let TurnSummary {
         min_turn_radius_m,
         w_max_radps,
+        lat_accel_max_mps2,
         last_omega_radps,
         mean_omega_radps,
     } = *turns;
     let turn_rate_dps = last_omega_radps.map(f64::to_degrees);
     let mean_turn_rate_dps = mean_omega_radps.map(f64::to_degrees);
-    let turn_rate_max = if speed_mps > 0.0 { w_max_radps } else { 0.0 };
+    let turn_rate_max = if speed_mps > 0.0 {
+        turn_capability(w_max_radps, lat_accel_max_mps2, speed_mps, cfg)
+    } else {
+        0.0
+    };
     Some(Estimates {
         t_s: last.t_s,
         position_m,
@@ -312,6 +342,22 @@ pub fn estimate(track: &Track, turns: &TurnSummary, cfg: &EstimatorConfig) -> Op
         turn_rate_dps,
         mean_turn_rate_dps,
     })
+}
+
+/// The turn rate an obstacle can fly at `speed_mps`: its demonstrated capability
+/// `w_max_radps`, at most `lat_accel_max_mps2 / speed_mps`, at least the floor, rad/s.
+pub fn turn_capability(
+    w_max_radps: f64,
+    lat_accel_max_mps2: Option<f64>,
+    speed_mps: f64,
+    cfg: &EstimatorConfig,
+) -> f64 {
+    let floor = cfg.turn_rate_floor_dps.to_radians();
+    let by_accel = match lat_accel_max_mps2 {
+        Some(a) if speed_mps > 0.0 => a / speed_mps,
+        _ => f64::INFINITY,
+    };
+    w_max_radps.min(by_accel).max(floor)
 }
 
 /// Least-squares fit of position against time over `win`, evaluated at `t_ref`:

@@ -40,8 +40,16 @@ pub struct MotionModel {
     pub heading_rad: f64,
     /// Constant speed, m/s.
     pub speed_mps: f64,
-    /// Turn-rate capability, rad/s.
+    /// Turn-rate capability, rad/s: the range of the Random stage's uniform draw and the
+    /// scale of the histograms' bins.
     pub w_max_radps: f64,
+    /// The largest turn rate a particle flies at the model's speed, rad/s (drawn rates are
+    /// clamped to it): the estimate's capability at the current speed
+    /// ([`Estimates::turn_rate_max_dps`], bounded by the demonstrated lateral
+    /// acceleration). An obstacle that turned tightly only when slow (a spline tour's
+    /// reversal) keeps its histogram, but its particles do not spin at that rate while it
+    /// cruises.
+    pub turn_limit_radps: f64,
     /// Decision interval, seconds.
     pub decision_interval_s: f64,
     /// NoFly growth speed, m/s.
@@ -102,6 +110,11 @@ impl MotionModel {
         nofly_speed_mps: f64,
         cfg: &StageConfig,
     ) -> Self {
+        let turn_limit_radps = if est.speed_mps > 0.0 {
+            est.turn_rate_max_dps.to_radians()
+        } else {
+            hist.w_max_radps
+        };
         let cdf = match stage {
             Stage::NoFly | Stage::Random => Vec::new(),
             Stage::Advanced => vec![cdf_u32(&smoothed(&hist.counts, cfg.smoothing_alpha))],
@@ -117,7 +130,14 @@ impl MotionModel {
             position_m: est.position_m,
             heading_rad: est.velocity_mps[1].atan2(est.velocity_mps[0]),
             speed_mps: est.speed_mps,
-            w_max_radps: hist.w_max_radps,
+            // The Random stage draws over the capability at the current speed; the
+            // histograms keep their own scale and their draws are clamped to it.
+            w_max_radps: if stage == Stage::Random {
+                turn_limit_radps
+            } else {
+                hist.w_max_radps
+            },
+            turn_limit_radps,
             decision_interval_s,
             nofly_speed_mps,
             bins: cfg.turn_bins,
@@ -249,7 +269,7 @@ impl<'a> Propagator<'a> {
                 &rm.cfg,
                 Novel {
                     speed_mps: model.speed_mps,
-                    w_max_radps: model.w_max_radps,
+                    w_max_radps: model.turn_limit_radps,
                     decision_interval_s: model.decision_interval_s,
                 },
                 n,
@@ -317,7 +337,8 @@ impl<'a> Propagator<'a> {
         let width = 2.0 * m.w_max_radps / levels as f64;
         let tab = (0..levels)
             .map(|j| {
-                let w = -m.w_max_radps + (j as f64 + 0.5) * width;
+                let w = (-m.w_max_radps + (j as f64 + 0.5) * width)
+                    .clamp(-m.turn_limit_radps, m.turn_limit_radps);
                 let th = w * h;
                 let (s, c) = th.sin_cos();
                 let (a, b) = if w.abs() > 1e-9 {
