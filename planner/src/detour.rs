@@ -41,6 +41,11 @@ pub struct DetourParams {
     pub escape_turns_deg: [f64; 7],
     /// Straight runs after the escape turn, metres. Default 60, 150, 300.
     pub escape_runs_m: [f64; 3],
+    /// Lengths of the straight final approach of a re-approach
+    /// ([`reapproach_candidates`]), in units of the turn radius. Default `[3, 5]`.
+    pub reapproach_r: [f64; 2],
+    /// Directions of the final approach tried, degrees apart (all round). Default 45.
+    pub reapproach_step_deg: f64,
 }
 
 impl Default for DetourParams {
@@ -53,6 +58,8 @@ impl Default for DetourParams {
             hold_points: 6,
             escape_turns_deg: [0.0, 30.0, 60.0, 90.0, 120.0, 150.0, 180.0],
             escape_runs_m: [60.0, 150.0, 300.0],
+            reapproach_r: [3.0, 5.0],
+            reapproach_step_deg: 45.0,
         }
     }
 }
@@ -263,6 +270,75 @@ pub fn escape_candidates(
     out
 }
 
+/// Candidate tails that set up a straight final approach to the fixed item `target` (an
+/// index into `tail`) that a flown path passed outside the capture distance: one avoid point
+/// `L` before it (`L` each of [`DetourParams::reapproach_r`] turn radii) on approach
+/// directions all round (every [`DetourParams::reapproach_step_deg`], starting with the
+/// leg's own), inserted before `target`, and also replacing the avoid items between the
+/// previous fixed item and `target`. A point outside the fly zone or inside a cylinder at
+/// `alt_m` is not proposed. `from` is the aircraft's position. Deterministic.
+#[allow(clippy::too_many_arguments)]
+pub fn reapproach_candidates(
+    from: Point,
+    tail: &[StackItem],
+    target: usize,
+    alt_m: f64,
+    turn_radius_m: f64,
+    cylinders: &[Cylinder],
+    zones: &Zones,
+    params: &DetourParams,
+) -> Vec<Vec<StackItem>> {
+    let Some(w) = tail.get(target) else {
+        return vec![];
+    };
+    let prev = if target == 0 {
+        from
+    } else {
+        tail[target - 1].p_m
+    };
+    let base = {
+        let d = sub(w.p_m, prev);
+        if d[0].hypot(d[1]) > 1e-6 {
+            d[1].atan2(d[0])
+        } else {
+            0.0
+        }
+    };
+    // The avoid items just before the target (after the previous fixed item).
+    let first_avoid = tail[..target]
+        .iter()
+        .rposition(|i| i.is_fixed())
+        .map_or(0, |k| k + 1);
+    let step = params.reapproach_step_deg.max(1.0).to_radians();
+    let n = (std::f64::consts::TAU / step).round().max(1.0) as usize;
+    let mut out = Vec::new();
+    for k in 0..n {
+        let a = base + k as f64 * step;
+        for &l in &params.reapproach_r {
+            let q = sub(w.p_m, scale([a.cos(), a.sin()], l * turn_radius_m.max(1.0)));
+            if !zones.contains(q)
+                || cylinders
+                    .iter()
+                    .any(|cy| cy.matters_at(alt_m) && dist(cy.center_m, q) < cy.radius_m * 1.2)
+            {
+                continue;
+            }
+            let approach = StackItem::avoid(q, w.alt_m);
+            let mut inserted = tail[..target].to_vec();
+            inserted.push(approach);
+            inserted.extend_from_slice(&tail[target..]);
+            out.push(inserted);
+            if first_avoid < target {
+                let mut replaced = tail[..first_avoid].to_vec();
+                replaced.push(approach);
+                replaced.extend_from_slice(&tail[target..]);
+                out.push(replaced);
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -441,5 +517,61 @@ mod tests {
         let c = escapes(&[cyl], &[90.0]);
         assert_eq!(c.len(), 1);
         assert!(near(c[0][0].p_m, [40.0, -190.0]));
+    }
+
+    #[test]
+    fn a_reapproach_puts_one_point_before_the_waypoint_on_every_side() {
+        // W0 (fixed), an avoid item, then W1 at (0, 400) reached from the avoid item at
+        // (100, 300); turn radius 40 m, approach lengths 3 and 5 radii, every 90 degrees.
+        let w1 = StackItem::mission(1, [0.0, 400.0], 120.0);
+        let tail = vec![
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::avoid([100.0, 300.0], 100.0),
+            w1,
+            StackItem::mission(2, [0.0, 900.0], 100.0),
+        ];
+        let params = DetourParams {
+            reapproach_step_deg: 90.0,
+            ..DetourParams::default()
+        };
+        let cands = |cylinders: &[Cylinder]| {
+            reapproach_candidates(
+                [0.0, -100.0],
+                &tail,
+                2,
+                100.0,
+                40.0,
+                cylinders,
+                &Zones::default(),
+                &params,
+            )
+        };
+        let c = cands(&[]);
+        // 4 directions x 2 lengths, each inserted and replacing the avoid item.
+        assert_eq!(c.len(), 16);
+        for t in &c {
+            let k = t.iter().position(|i| *i == w1).unwrap();
+            let a = t[k - 1];
+            assert_eq!(a.kind, crate::stack::ItemKind::Avoid);
+            // On the waypoint's own altitude, 120 m or 200 m out.
+            assert_eq!(a.alt_m, 120.0);
+            let l = dist(a.p_m, w1.p_m);
+            assert!((l - 120.0).abs() < 1e-9 || (l - 200.0).abs() < 1e-9, "{l}");
+            // Every fixed item kept, in order.
+            let fixed: Vec<_> = t.iter().filter(|i| i.is_fixed()).collect();
+            assert_eq!(fixed.len(), 3);
+        }
+        // The first direction is the leg's own (from the avoid item to W1): the point lies
+        // back along it.
+        let u = [-std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2];
+        let want = [w1.p_m[0] - 120.0 * u[0], w1.p_m[1] - 120.0 * u[1]];
+        assert!(dist(c[0][2].p_m, want) < 1e-6, "{:?}", c[0][2]);
+        // A point inside a cylinder (grown by a fifth) is not proposed.
+        let cyl = Cylinder {
+            center_m: want,
+            radius_m: 10.0,
+            top_m: 200.0,
+        };
+        assert_eq!(cands(&[cyl]).len(), 14);
     }
 }

@@ -60,6 +60,11 @@ pub struct VerifyParams {
     /// damping 0.75, give `0.75 * 17 / pi = 4.06 s`), at most twice the turn radius.
     /// Default 4.06.
     pub l1_s: f64,
+    /// A fixed item (mission or search waypoint) counts as captured when the L1 path
+    /// comes within this distance of it before switching past it, metres (the judges
+    /// capture within 100 ft = 30.48 m in three dimensions; the default 25 leaves room for
+    /// the climb and for the difference between this model and the autopilot). Default 25.
+    pub capture_m: f64,
     /// The autopilot's waypoint acceptance radius, metres (it switches to the next item
     /// within it or once past the item's finish line). Default 10.
     pub acceptance_m: f64,
@@ -72,6 +77,7 @@ impl Default for VerifyParams {
             near_s: 10.0,
             far_risk: 0.3,
             l1_s: 0.75 * 17.0 / std::f64::consts::PI,
+            capture_m: 25.0,
             acceptance_m: 10.0,
         }
     }
@@ -138,6 +144,14 @@ pub struct Verification {
     pub zone_exits: usize,
     /// Index in the tail of the first item the aircraft cannot fly to.
     pub unreachable: Option<usize>,
+    /// Fixed items (mission and search waypoints) the L1 path switches past, within the
+    /// horizon, without coming within [`VerifyParams::capture_m`] of them: the autopilot
+    /// moves on (it passed the item's finish line) and the judges do not count them.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub missed_waypoints: usize,
+    /// Index in the tail of the first of those.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub first_missed: Option<usize>,
     /// Length of the polyline, metres.
     pub length_m: f64,
     /// The first conflict found (cylinder, risk above `safe_risk`, fly zone, turn).
@@ -162,7 +176,8 @@ impl Verification {
     /// in danger (either route's near-term peak risk above `danger_risk`), the lower
     /// near-term peak, before fly-zone exits; then fewer fly-zone exits, clear before
     /// unclear, then (both unclear) lower near-term peak, lower graded peak, lower
-    /// exposure; then shorter. True when `self` is strictly better than `other`.
+    /// exposure; (both clear) fewer missed waypoints; then shorter. True when `self` is
+    /// strictly better than `other`.
     ///
     /// The danger rule puts a collision expected within [`VerifyParams::near_s`] above a
     /// boundary excursion: a hit costs a team about fifteen minutes of flight, and an
@@ -205,6 +220,9 @@ impl Verification {
                     return a < b;
                 }
             }
+        } else if self.missed_waypoints != other.missed_waypoints {
+            // Only among safe routes: a waypoint is worth a loop, never a risk.
+            return self.missed_waypoints < other.missed_waypoints;
         }
         self.length_m < other.length_m - 1e-9
     }
@@ -374,6 +392,7 @@ pub fn verify_route<'e>(
             // tuned for the aircraft flies a tighter one.
             l1_m: (params.l1_s * speed_mps).min(2.0 * turn_radius_m),
             acceptance_m: params.acceptance_m,
+            capture_m: params.capture_m,
         },
     ] {
         fly(
@@ -403,7 +422,11 @@ enum Guidance {
     /// switching within `acceptance_m` or past the item's finish line. It overshoots
     /// corners and converges back onto each leg in an S: the path a tiny cylinder beside
     /// a leg meets (issue 10, mixed seed 10).
-    L1 { l1_m: f64, acceptance_m: f64 },
+    L1 {
+        l1_m: f64,
+        acceptance_m: f64,
+        capture_m: f64,
+    },
 }
 
 /// Simulates a flown path (`guidance` at bounded turn rate) and checks it up to
@@ -437,6 +460,14 @@ fn fly<'e>(
     // Time allowed to reach an item: the straight time plus two full circles.
     let circle_s = std::f64::consts::TAU * turn_radius_m / speed_mps;
     let mut deadline = t + dist(p, tail[0].p_m) / speed_mps + 2.0 * circle_s + 5.0;
+    // Closest approach to the current item so far (the L1 path's waypoint capture).
+    let mut closest = f64::INFINITY;
+    let capture_m = match guidance {
+        Guidance::L1 { capture_m, .. } => Some(capture_m),
+        Guidance::Pursuit => None,
+    };
+    let judge_first =
+        capture_m.is_some_and(|c| !may_have_captured(p, th, tail[0].p_m, c, speed_mps));
     while i < tail.len() && t <= horizon_end {
         let it = tail[i];
         let alt = alt_prev.min(it.alt_m);
@@ -460,12 +491,22 @@ fn fly<'e>(
             (Guidance::Pursuit, None) => 0.0,
         };
         let d = dist(p, it.p_m);
+        closest = closest.min(d);
         let passed = {
             let leg = sub(it.p_m, leg_from);
             let r = sub(p, it.p_m);
             leg[0] * r[0] + leg[1] * r[1] > 0.0 && dist(leg_from, it.p_m) > 1e-6
         };
         if d <= lead.max(step) || passed {
+            if let Some(c) = capture_m
+                && it.is_fixed()
+                && closest > c
+                && (i > 0 || judge_first)
+            {
+                acc.out.missed_waypoints += 1;
+                acc.out.first_missed.get_or_insert(i);
+            }
+            closest = f64::INFINITY;
             leg_from = it.p_m;
             alt_prev = it.alt_m;
             i += 1;
@@ -509,6 +550,16 @@ fn fly<'e>(
             acc.out.exposure_m += r * step;
         }
     }
+}
+
+/// Whether an aircraft at `p` flying the ENU direction `th` may have passed within
+/// `capture_m` of `item` a moment ago, before this plan, and be about to cross its finish
+/// line (so the item is not judged): it is within a few metres of that distance, or moving
+/// away from the item (more than 120 degrees off) within two seconds of flight of it.
+fn may_have_captured(p: Point, th: f64, item: Point, capture_m: f64, speed_mps: f64) -> bool {
+    let d = dist(p, item);
+    let off = wrap(bearing(p, item) - th).abs();
+    d <= capture_m + 5.0 || (off > 120f64.to_radians() && d <= capture_m + 2.0 * speed_mps)
 }
 
 /// `a` wrapped to `[-pi, pi)`.
@@ -800,5 +851,59 @@ mod tests {
             ..through_cylinder
         };
         assert!(inside.better_than(&polyline_cylinder, 0.05, 0.25));
+    }
+
+    #[test]
+    fn a_waypoint_passed_wide_of_the_capture_distance_is_missed_and_a_straight_approach_is_not() {
+        // Heading north to W0 400 m ahead, then W1 45 m to its east (a right angle the
+        // 40 m turn radius cannot make), then W2 300 m back south. The L1 path switches
+        // past W1 at its finish line, tens of metres wide of it.
+        let tail = [
+            StackItem::mission(0, [0.0, 400.0], 100.0),
+            StackItem::mission(1, [45.0, 400.0], 100.0),
+            StackItem::mission(2, [45.0, 100.0], 100.0),
+        ];
+        let v = check(&NoRisk, &[], &state(0.0), &tail);
+        assert_eq!((v.missed_waypoints, v.first_missed), (1, Some(1)), "{v:?}");
+        assert!(v.is_clear(0.05), "a miss is not a safety violation: {v:?}");
+        // One approach point 3 turn radii before W1 on the far side: flown straight in.
+        let mut approach = tail.to_vec();
+        approach.insert(1, StackItem::avoid([45.0 + 120.0, 400.0], 100.0));
+        let va = check(&NoRisk, &[], &state(0.0), &approach);
+        assert_eq!(va.missed_waypoints, 0, "{va:?}");
+        // Among clear routes the one that captures wins although it is longer.
+        assert!(va.length_m > v.length_m);
+        assert!(va.better_than(&v, 0.05, 0.25));
+        assert!(!v.better_than(&va, 0.05, 0.25));
+        // Never at the price of risk: an unclear route that captures loses to a clear miss.
+        let risky = Verification {
+            graded_peak_risk: 0.5,
+            near_peak_risk: 0.5,
+            ..va
+        };
+        assert!(v.better_than(&risky, 0.05, 0.25));
+    }
+
+    #[test]
+    fn the_waypoint_being_flown_to_is_not_judged_when_it_may_just_have_been_captured() {
+        // Aircraft at the origin flying north (ENU direction pi/2) at 20 m/s; capture 25 m.
+        let north = std::f64::consts::FRAC_PI_2;
+        let may = |item: Point| may_have_captured([0.0, 0.0], north, item, 25.0, 20.0);
+        // Within a few metres of the capture distance, anywhere.
+        assert!(may([28.0, 0.0]));
+        // 40 m behind: passed within 25 m a moment ago is possible.
+        assert!(may([0.0, -40.0]));
+        assert!(may([-20.0, -40.0]));
+        // Behind but beyond two seconds of flight, or ahead, or abeam: never near yet.
+        assert!(!may([0.0, -70.0]));
+        assert!(!may([0.0, 40.0]));
+        assert!(!may([45.0, 0.0]));
+        // And the judged case misses: 80 m off the aircraft's quarter, never near.
+        let far = [
+            StackItem::mission(0, [60.0, -50.0], 100.0),
+            StackItem::mission(1, [0.0, 500.0], 100.0),
+        ];
+        let v = check(&NoRisk, &[], &state(0.0), &far);
+        assert_eq!(v.first_missed, Some(0), "{v:?}");
     }
 }

@@ -82,3 +82,37 @@ fn the_tangent_graph_hits_fewer_cylinders_than_flying_straight() {
         "none {none}, tangent {tangent}"
     );
 }
+
+#[test]
+fn a_waypoint_the_autopilot_would_pass_too_wide_is_captured_with_a_straight_approach() {
+    // A hairpin: W1 45-50 m to the side of W0 (a turn the 58 m radius cannot make), then
+    // back. Flown as given, the autopilot switches past W1 at its finish line 40-60 m wide
+    // of it; the planner sees that on its modelled flight (verify) and sets up a straight
+    // approach. Judged by the simulator's own aircraft and scoring (100 ft, 3-D).
+    let base = generate(Family::Static, 3, &ScenarioParams::default());
+    for (dx, dy) in [(-20.0, 40.0), (0.0, 45.0), (10.0, 50.0)] {
+        let mut s = base.clone();
+        s.mission.cylinders.clear();
+        s.spheres.clear();
+        let w0 = s.mission.waypoints[0];
+        let d = [w0.p_m[0] - s.start_m[0], w0.p_m[1] - s.start_m[1]];
+        let n = d[0].hypot(d[1]);
+        let (u, v) = ([d[0] / n, d[1] / n], [-d[1] / n, d[0] / n]);
+        let mut w1 = w0;
+        w1.p_m = [
+            w0.p_m[0] + dx * u[0] + dy * v[0],
+            w0.p_m[1] + dx * u[1] + dy * v[1],
+        ];
+        let mut w2 = w0;
+        w2.p_m = [w1.p_m[0] - 300.0 * u[0], w1.p_m[1] - 300.0 * u[1]];
+        s.mission.waypoints = vec![w0, w1, w2];
+        let flown = run(&s, StrategyKind::None, &RunConfig::default()).metrics;
+        assert_eq!(
+            flown.waypoints_captured, 2,
+            "({dx}, {dy}): the hairpin is missed as given"
+        );
+        let planned = run(&s, StrategyKind::BisectionAuto, &RunConfig::default()).metrics;
+        assert_eq!(planned.waypoints_captured, 3, "({dx}, {dy}): {planned:?}");
+        assert!(planned.completed);
+    }
+}

@@ -55,7 +55,9 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::bisection::{BisectionParams, Workspace, bisect_leg};
 use crate::cost::LegEnv;
-use crate::detour::{DetourParams, detour_candidates, escape_candidates, hold_candidates};
+use crate::detour::{
+    DetourParams, detour_candidates, escape_candidates, hold_candidates, reapproach_candidates,
+};
 use crate::geometry::{Point, dist};
 use crate::mission::{Aircraft, Mission, Zones, cylinder_containing};
 use crate::prepass::{PrepassParams, prepass_leg};
@@ -650,8 +652,30 @@ pub fn plan_until(
             }
         }
     }
+    if p.strategy == Strategy::Bisection
+        && best.is_clear(p.safe_risk)
+        && let Some(target) = best.first_missed
+        && !term.should_stop()
+    {
+        // A safe route whose flown path passes a waypoint too wide to capture it: set up a
+        // straight final approach (crate::detour::reapproach_candidates).
+        let alt = s.alt_m.min(best_tail[target].alt_m);
+        let cands = reapproach_candidates(
+            s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.detour,
+        );
+        timed_out |= keep_best(
+            cands,
+            &verify,
+            &keeps_fixed,
+            term,
+            p,
+            (&mut best, &mut best_tail),
+            &mut evaluations,
+        );
+    }
     if best_tail != base_tail
         && v_base.is_clear(p.safe_risk)
+        && v_base.missed_waypoints <= best.missed_waypoints
         && v_base.length_m <= best.length_m * (1.0 + p.keep_slack) + p.keep_slack_m
     {
         best = v_base;
