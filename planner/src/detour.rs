@@ -563,7 +563,10 @@ mod tests {
         }
         // The first direction is the leg's own (from the avoid item to W1): the point lies
         // back along it.
-        let u = [-std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2];
+        let u = [
+            -std::f64::consts::FRAC_1_SQRT_2,
+            std::f64::consts::FRAC_1_SQRT_2,
+        ];
         let want = [w1.p_m[0] - 120.0 * u[0], w1.p_m[1] - 120.0 * u[1]];
         assert!(dist(c[0][2].p_m, want) < 1e-6, "{:?}", c[0][2]);
         // A point inside a cylinder (grown by a fifth) is not proposed.
