@@ -312,33 +312,42 @@ pub enum PlanError {
     RiskMap(String),
 }
 
-/// Verifies each of `cands` that keeps every fixed item, until `term` says stop, and keeps
-/// the best so far in `best` (its verification and route). True when `term` stopped it.
-fn keep_best(
-    cands: Vec<Vec<StackItem>>,
-    verify: &dyn Fn(&[StackItem]) -> Verification,
-    keeps_fixed: &dyn Fn(&[StackItem]) -> bool,
-    term: &Termination,
-    p: &PlanParams,
-    best: (&mut Verification, &mut Vec<StackItem>),
-    evaluations: &mut u64,
-) -> bool {
-    let (best, best_tail) = best;
-    for cand in cands {
-        if term.should_stop() {
-            return true;
+/// What candidate routes are judged by: their verification, the rule that every fixed
+/// item is flown in order, the deadline and the plan's parameters.
+struct Judge<'a> {
+    verify: &'a dyn Fn(&[StackItem]) -> Verification,
+    keeps_fixed: &'a dyn Fn(&[StackItem]) -> bool,
+    term: &'a Termination,
+    p: &'a PlanParams,
+}
+
+impl Judge<'_> {
+    /// Verifies each of `cands` that keeps every fixed item, until the deadline, and keeps
+    /// the best so far in `best` and `best_tail` (its verification and route). True when
+    /// the deadline stopped it.
+    fn keep_best(
+        &self,
+        cands: Vec<Vec<StackItem>>,
+        best: &mut Verification,
+        best_tail: &mut Vec<StackItem>,
+        evaluations: &mut u64,
+    ) -> bool {
+        for cand in cands {
+            if self.term.should_stop() {
+                return true;
+            }
+            if !(self.keeps_fixed)(&cand) {
+                continue;
+            }
+            *evaluations += 1;
+            let v = (self.verify)(&cand);
+            if v.better_than(best, self.p.safe_risk, self.p.danger_risk) {
+                *best = v;
+                *best_tail = cand;
+            }
         }
-        if !keeps_fixed(&cand) {
-            continue;
-        }
-        *evaluations += 1;
-        let v = verify(&cand);
-        if v.better_than(best, p.safe_risk, p.danger_risk) {
-            *best = v;
-            *best_tail = cand;
-        }
+        false
     }
-    false
 }
 
 /// Where a manoeuvre from the aircraft (a hold, an escape) starts: the altitude it is
@@ -551,6 +560,12 @@ pub fn plan_until(
     };
     let base_fixed = fixed_of(&base_tail);
     let keeps_fixed = |tail: &[StackItem]| fixed_of(tail) == base_fixed;
+    let judge = Judge {
+        verify: &verify,
+        keeps_fixed: &keeps_fixed,
+        term,
+        p,
+    };
     let mut best_tail = base_tail.clone();
     let mut best = v_base;
     for cand in [&prepass_tail, &full_tail] {
@@ -575,15 +590,7 @@ pub fn plan_until(
             let cands = detour_candidates(
                 s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.prepass, &p.detour,
             );
-            timed_out |= keep_best(
-                cands,
-                &verify,
-                &keeps_fixed,
-                term,
-                p,
-                (&mut best, &mut best_tail),
-                &mut evaluations,
-            );
+            timed_out |= judge.keep_best(cands, &mut best, &mut best_tail, &mut evaluations);
         }
         // Escapes are for an aircraft in or at the edge of its fly zone: from farther out
         // (lost, or bad telemetry) every candidate route is long and verifying dozens of
@@ -614,15 +621,7 @@ pub fn plan_until(
                 &p.detour.escape_turns_deg,
                 &p.detour.escape_runs_m,
             );
-            timed_out |= keep_best(
-                cands,
-                &verify,
-                &keeps_fixed,
-                term,
-                p,
-                (&mut best, &mut best_tail),
-                &mut evaluations,
-            );
+            timed_out |= judge.keep_best(cands, &mut best, &mut best_tail, &mut evaluations);
         }
         if p.hold && !best.is_clear(p.safe_risk) && !term.should_stop() {
             // Nothing bends round it: wait for it (a hold circle, then the best route).
@@ -663,15 +662,7 @@ pub fn plan_until(
         let cands = reapproach_candidates(
             s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.detour,
         );
-        timed_out |= keep_best(
-            cands,
-            &verify,
-            &keeps_fixed,
-            term,
-            p,
-            (&mut best, &mut best_tail),
-            &mut evaluations,
-        );
+        timed_out |= judge.keep_best(cands, &mut best, &mut best_tail, &mut evaluations);
     }
     if best_tail != base_tail
         && v_base.is_clear(p.safe_risk)
