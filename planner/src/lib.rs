@@ -62,4 +62,4 @@ pub use replan::{
 };
 pub use stack::{ItemKind, StackDiff, StackItem, diff};
 pub use termination::Termination;
-pub use verify::{Conflict, Verification, VerifyParams, verify_route};
+pub use verify::{Conflict, Rival, Verification, VerifyParams, verify_route, verify_route_to_beat};

@@ -226,6 +226,83 @@ impl Verification {
         }
         self.length_m < other.length_m - 1e-9
     }
+
+    /// Whether no verification that grows from this partial one (`self`: a route flown
+    /// forward part of the way) can be [`Verification::better_than`] `rival`. Every figure
+    /// the ranking reads only grows as the route is flown further (counts, peaks, exposure,
+    /// length, misses), and `clear` only turns into `unclear`; before the polyline is done
+    /// (`polyline_done` false) its cylinder count so far is a lower bound and the length
+    /// is partial. Conservative: `false` whenever the rest of the route could still win.
+    pub fn cannot_beat(
+        &self,
+        rival: &Verification,
+        safe_risk: f64,
+        danger_risk: f64,
+        polyline_done: bool,
+    ) -> bool {
+        use std::cmp::Ordering::{Equal, Greater, Less};
+        let tol = 1e-9;
+        // Each step: Greater, the final figure is surely worse (lost); Less, it may be
+        // better (undecided); Equal, it can only tie or be worse here (go on).
+        let pch = if polyline_done {
+            self.polyline_cylinder_hits
+        } else {
+            self.cylinder_hits
+        };
+        match pch.cmp(&rival.polyline_cylinder_hits) {
+            Greater => return true,
+            Less => return false,
+            Equal => {}
+        }
+        let flown = |v: &Verification| v.cylinder_hits + usize::from(v.unreachable.is_some());
+        match flown(self).cmp(&flown(rival)) {
+            Greater => return true,
+            Less => return false,
+            Equal => {}
+        }
+        // Danger: decided by the near peak when either is above `danger_risk`.
+        if self.near_peak_risk > rival.near_peak_risk + tol
+            && self.near_peak_risk.max(rival.near_peak_risk) > danger_risk
+        {
+            return true;
+        }
+        if rival.near_peak_risk > danger_risk && self.near_peak_risk < rival.near_peak_risk - tol {
+            return false;
+        }
+        match self.hard().cmp(&rival.hard()) {
+            Greater => return true,
+            Less => return false,
+            Equal => {}
+        }
+        let (a_clear, b_clear) = (
+            self.graded_peak_risk <= safe_risk,
+            rival.graded_peak_risk <= safe_risk,
+        );
+        match (a_clear, b_clear) {
+            (false, true) => return true,
+            (true, false) => return false,
+            (false, false) => {
+                for (a, b) in [
+                    (self.near_peak_risk, rival.near_peak_risk),
+                    (self.graded_peak_risk, rival.graded_peak_risk),
+                    (self.exposure_m, rival.exposure_m),
+                ] {
+                    if a > b + tol {
+                        return true;
+                    }
+                    if a < b - tol {
+                        return false;
+                    }
+                }
+            }
+            (true, true) => match self.missed_waypoints.cmp(&rival.missed_waypoints) {
+                Greater => return true,
+                Less => return false,
+                Equal => {}
+            },
+        }
+        self.length_m >= rival.length_m - tol
+    }
 }
 
 /// Per-leg environments: the risk field, zones and cylinders seen at an altitude.
@@ -320,6 +397,72 @@ pub fn verify_route<'e>(
     safe_risk: f64,
     params: &VerifyParams,
 ) -> Verification {
+    verify_inner(
+        env_at,
+        state,
+        tail,
+        speed_mps,
+        turn_radius_m,
+        safe_risk,
+        params,
+        None,
+    )
+    .expect("without a rival a verification always completes")
+}
+
+/// A verification a candidate must beat ([`Verification::better_than`] with these risks).
+#[derive(Debug, Clone, Copy)]
+pub struct Rival<'a> {
+    /// The best route's verification so far.
+    pub best: &'a Verification,
+    /// The plan's safe risk.
+    pub safe_risk: f64,
+    /// The plan's danger risk.
+    pub danger_risk: f64,
+}
+
+/// [`verify_route`] that stops as soon as the route cannot be better than `rival`: `None`
+/// then, else the full verification (the same as [`verify_route`]'s). Every figure a
+/// verification ranks by only grows while a route is flown forward, so once a partial
+/// verification [`Verification::cannot_beat`] the rival, the whole one cannot either; a
+/// search that keeps the best candidate picks exactly the same one, checking most losers
+/// only in part (issue 9: plan latency).
+#[allow(clippy::too_many_arguments)]
+pub fn verify_route_to_beat<'e>(
+    env_at: &impl EnvAt<'e>,
+    state: &AircraftState,
+    tail: &[StackItem],
+    speed_mps: f64,
+    turn_radius_m: f64,
+    params: &VerifyParams,
+    rival: Rival<'_>,
+) -> Option<Verification> {
+    verify_inner(
+        env_at,
+        state,
+        tail,
+        speed_mps,
+        turn_radius_m,
+        rival.safe_risk,
+        params,
+        Some(rival),
+    )
+}
+
+#[allow(clippy::too_many_arguments)]
+fn verify_inner<'e>(
+    env_at: &impl EnvAt<'e>,
+    state: &AircraftState,
+    tail: &[StackItem],
+    speed_mps: f64,
+    turn_radius_m: f64,
+    safe_risk: f64,
+    params: &VerifyParams,
+    rival: Option<Rival<'_>>,
+) -> Option<Verification> {
+    let lost = |v: &Verification, polyline_done: bool| {
+        rival.is_some_and(|r| v.cannot_beat(r.best, r.safe_risk, r.danger_risk, polyline_done))
+    };
     let env0 = env_at(state.alt_m);
     let near_end_s = state.t_s + params.near_s;
     let far_span = env0.horizon_end_s - near_end_s;
@@ -368,6 +511,9 @@ pub fn verify_route<'e>(
         acc.out.length_m += l;
         prev = it.p_m;
         prev_alt = it.alt_m;
+        if lost(&acc.out, false) {
+            return None;
+        }
     }
 
     acc.out.polyline_cylinder_hits = acc.out.cylinder_hits;
@@ -395,6 +541,9 @@ pub fn verify_route<'e>(
             capture_m: params.capture_m,
         },
     ] {
+        if lost(&acc.out, true) {
+            return None;
+        }
         fly(
             &mut acc,
             env_at,
@@ -405,9 +554,13 @@ pub fn verify_route<'e>(
             step,
             horizon_end,
             guidance,
+            &|v| lost(v, true),
         );
     }
-    acc.out
+    if lost(&acc.out, true) {
+        return None;
+    }
+    Some(acc.out)
 }
 
 /// How the modelled autopilot steers along the flown path.
@@ -442,6 +595,7 @@ fn fly<'e>(
     step: f64,
     horizon_end: f64,
     guidance: Guidance,
+    lost: &dyn Fn(&Verification) -> bool,
 ) {
     if tail.is_empty() || turn_radius_m <= 0.0 {
         return;
@@ -468,28 +622,34 @@ fn fly<'e>(
     };
     let judge_first =
         capture_m.is_some_and(|c| !may_have_captured(p, th, tail[0].p_m, c, speed_mps));
+    // The item `lead` was computed for (it depends on the leg and the next item only).
+    let (mut lead_for, mut lead) = (usize::MAX, 0.0);
+    let mut steps = 0u32;
     while i < tail.len() && t <= horizon_end {
         let it = tail[i];
         let alt = alt_prev.min(it.alt_m);
         let env = env_at(alt);
         // Pursuit switches early by the fillet's tangent length toward the next item; L1
         // at the acceptance radius.
-        let lead = match (guidance, tail.get(i + 1)) {
-            (Guidance::L1 { acceptance_m, .. }, _) => acceptance_m,
-            (Guidance::Pursuit, Some(next)) => {
-                let a = sub(it.p_m, leg_from);
-                let b = sub(next.p_m, it.p_m);
-                let (la, lb) = (dist(leg_from, it.p_m), dist(it.p_m, next.p_m));
-                if la > 1e-6 && lb > 1e-6 {
-                    let cosang = ((a[0] * b[0] + a[1] * b[1]) / (la * lb)).clamp(-1.0, 1.0);
-                    let ang = cosang.acos();
-                    (turn_radius_m * (ang / 2.0).tan()).min(0.5 * la.min(lb))
-                } else {
-                    0.0
+        if lead_for != i {
+            lead_for = i;
+            lead = match (guidance, tail.get(i + 1)) {
+                (Guidance::L1 { acceptance_m, .. }, _) => acceptance_m,
+                (Guidance::Pursuit, Some(next)) => {
+                    let a = sub(it.p_m, leg_from);
+                    let b = sub(next.p_m, it.p_m);
+                    let (la, lb) = (dist(leg_from, it.p_m), dist(it.p_m, next.p_m));
+                    if la > 1e-6 && lb > 1e-6 {
+                        let cosang = ((a[0] * b[0] + a[1] * b[1]) / (la * lb)).clamp(-1.0, 1.0);
+                        let ang = cosang.acos();
+                        (turn_radius_m * (ang / 2.0).tan()).min(0.5 * la.min(lb))
+                    } else {
+                        0.0
+                    }
                 }
-            }
-            (Guidance::Pursuit, None) => 0.0,
-        };
+                (Guidance::Pursuit, None) => 0.0,
+            };
+        }
         let d = dist(p, it.p_m);
         closest = closest.min(d);
         let passed = {
@@ -510,6 +670,9 @@ fn fly<'e>(
             leg_from = it.p_m;
             alt_prev = it.alt_m;
             i += 1;
+            if lost(&acc.out) {
+                return;
+            }
             if let Some(n) = tail.get(i) {
                 deadline = t + dist(p, n.p_m) / speed_mps + 2.0 * circle_s + 5.0;
             }
@@ -548,6 +711,10 @@ fn fly<'e>(
         let r = acc.risk(&env, p, t);
         if guidance == Guidance::Pursuit {
             acc.out.exposure_m += r * step;
+        }
+        steps += 1;
+        if steps % 32 == 0 && lost(&acc.out) {
+            return;
         }
     }
 }
@@ -750,6 +917,116 @@ mod tests {
             }
             proptest::prop_assert_eq!(v.cylinder_hits, hit.iter().filter(|&&h| h).count());
         }
+    }
+
+    /// Discs of risk moving at constant velocity: `(x0, y0, vx, vy, radius, risk)`.
+    struct Discs(Vec<(f64, f64, f64, f64, f64, f64)>);
+    impl RiskField for Discs {
+        fn risk(&self, p: [f64; 2], t: f64) -> f64 {
+            self.0
+                .iter()
+                .filter(|d| dist(p, [d.0 + d.2 * t, d.1 + d.3 * t]) < d.4)
+                .map(|d| d.5)
+                .fold(0.0, f64::max)
+        }
+    }
+
+    fn env_check<'e>(
+        risk: &'e dyn RiskField,
+        zones: &'e Zones,
+        cylinders: &'e [Cylinder],
+    ) -> impl Fn(f64) -> LegEnv<'e> {
+        move |alt_m| LegEnv {
+            risk,
+            zones,
+            cylinders,
+            alt_m,
+            buffer_fraction: 0.2,
+            speed_mps: 20.0,
+            horizon_end_s: 60.0,
+        }
+    }
+
+    proptest::proptest! {
+        /// Stopping a candidate once it cannot beat the best so far never changes which
+        /// candidate wins: a stopped one would have lost in full, and one not stopped gets
+        /// exactly the full verification.
+        #[test]
+        fn a_route_stopped_early_would_have_lost_and_one_not_stopped_is_verified_in_full(
+            cyl in proptest::collection::vec((-600.0..600.0f64, -600.0..600.0f64, 5.0..80.0f64), 0..6),
+            discs in proptest::collection::vec(
+                (-800.0..800.0f64, -800.0..800.0f64, -30.0..30.0f64, -30.0..30.0f64, 10.0..120.0f64, 0.01..1.0f64),
+                0..6,
+            ),
+            a in proptest::collection::vec((-900.0..900.0f64, -900.0..900.0f64, proptest::bool::ANY), 1..5),
+            b in proptest::collection::vec((-900.0..900.0f64, -900.0..900.0f64, proptest::bool::ANY), 1..5),
+            heading in 0.0..360.0f64,
+            danger in proptest::sample::select(vec![0.3, 0.5, 2.0]),
+        ) {
+            let cylinders: Vec<Cylinder> = cyl
+                .iter()
+                .map(|&(x, y, r)| Cylinder { center_m: [x, y], radius_m: r, top_m: 500.0 })
+                .collect();
+            let field = Discs(discs);
+            let zones = Zones::new(&[crate::mission::FlyZone {
+                boundary_m: vec![[-800.0, -800.0], [800.0, -800.0], [800.0, 800.0], [-800.0, 800.0]],
+                alt_min_m: 0.0,
+                alt_max_m: 1000.0,
+            }]);
+            let env_at = env_check(&field, &zones, &cylinders);
+            let tail = |pts: &[(f64, f64, bool)]| -> Vec<StackItem> {
+                pts.iter()
+                    .enumerate()
+                    .map(|(i, &(x, y, fixed))| {
+                        if fixed {
+                            StackItem::mission(i, [x, y], 100.0)
+                        } else {
+                            StackItem::avoid([x, y], 100.0)
+                        }
+                    })
+                    .collect()
+            };
+            let (ta, tb) = (tail(&a), tail(&b));
+            let s = state(heading);
+            let p = VerifyParams::default();
+            let va = verify_route(&env_at, &s, &ta, 20.0, 40.0, 0.05, &p);
+            let vb = verify_route(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p);
+            let rival = Rival { best: &va, safe_risk: 0.05, danger_risk: danger };
+            match verify_route_to_beat(&env_at, &s, &tb, 20.0, 40.0, &p, rival) {
+                None => proptest::prop_assert!(!vb.better_than(&va, 0.05, danger), "{vb:?} beats {va:?}"),
+                Some(v) => proptest::prop_assert_eq!(v, vb),
+            }
+        }
+    }
+
+    #[test]
+    fn a_longer_clear_route_is_stopped_before_its_flight_and_a_shorter_one_is_not() {
+        let zones = Zones::default();
+        let env_at = env_check(&NoRisk, &zones, &[]);
+        let s = state(0.0);
+        let p = VerifyParams::default();
+        let straight = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
+        let dogleg = [
+            StackItem::avoid([300.0, 500.0], 100.0),
+            StackItem::mission(0, [0.0, 1000.0], 100.0),
+        ];
+        let (vs, vd) = (
+            verify_route(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p),
+            verify_route(&env_at, &s, &dogleg, 20.0, 40.0, 0.05, &p),
+        );
+        let rival = |best| Rival {
+            best,
+            safe_risk: 0.05,
+            danger_risk: 0.5,
+        };
+        assert_eq!(
+            verify_route_to_beat(&env_at, &s, &dogleg, 20.0, 40.0, &p, rival(&vs)),
+            None
+        );
+        assert_eq!(
+            verify_route_to_beat(&env_at, &s, &straight, 20.0, 40.0, &p, rival(&vd)),
+            Some(vs)
+        );
     }
 
     /// Risk 1 inside a disc of radius 10 m moving east at 10 m/s from (-200, 500) at t = 0.

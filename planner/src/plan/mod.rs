@@ -65,7 +65,7 @@ use crate::simplify::simplify_path;
 use crate::stack::{ItemKind, StackDiff, StackItem, diff, mission_stack};
 use crate::termination::Termination;
 use crate::turn::turn_violations;
-use crate::verify::{Verification, VerifyParams, verify_route};
+use crate::verify::{Rival, Verification, VerifyParams, verify_route, verify_route_to_beat};
 
 mod select;
 use select::{
@@ -315,7 +315,9 @@ pub enum PlanError {
 /// What candidate routes are judged by: their verification, the rule that every fixed
 /// item is flown in order, the deadline and the plan's parameters.
 struct Judge<'a> {
-    verify: &'a dyn Fn(&[StackItem]) -> Verification,
+    /// The candidate's verification when it may beat the best so far (its argument);
+    /// `None` when it surely cannot (crate::verify::verify_route_to_beat).
+    verify_to_beat: &'a dyn Fn(&[StackItem], &Verification) -> Option<Verification>,
     keeps_fixed: &'a dyn Fn(&[StackItem]) -> bool,
     term: &'a Termination,
     p: &'a PlanParams,
@@ -340,8 +342,9 @@ impl Judge<'_> {
                 continue;
             }
             *evaluations += 1;
-            let v = (self.verify)(&cand);
-            if v.better_than(best, self.p.safe_risk, self.p.danger_risk) {
+            if let Some(v) = (self.verify_to_beat)(&cand, best)
+                && v.better_than(best, self.p.safe_risk, self.p.danger_risk)
+            {
                 *best = v;
                 *best_tail = cand;
             }
@@ -553,6 +556,14 @@ pub fn plan_until(
     let turn_r = req.aircraft.turn_radius_m;
     let verify =
         |tail: &[StackItem]| verify_route(&env_at, s, tail, speed, turn_r, p.safe_risk, &p.verify);
+    let verify_to_beat = |tail: &[StackItem], best: &Verification| {
+        let rival = Rival {
+            best,
+            safe_risk: p.safe_risk,
+            danger_risk: p.danger_risk,
+        };
+        verify_route_to_beat(&env_at, s, tail, speed, turn_r, &p.verify, rival)
+    };
     let v_base = verify(&base_tail);
     // A candidate must fly every fixed item of the stack, in order (never skip a waypoint).
     let fixed_of = |tail: &[StackItem]| -> Vec<StackItem> {
@@ -561,7 +572,7 @@ pub fn plan_until(
     let base_fixed = fixed_of(&base_tail);
     let keeps_fixed = |tail: &[StackItem]| fixed_of(tail) == base_fixed;
     let judge = Judge {
-        verify: &verify,
+        verify_to_beat: &verify_to_beat,
         keeps_fixed: &keeps_fixed,
         term,
         p,
@@ -575,8 +586,9 @@ pub fn plan_until(
         if !keeps_fixed(cand) {
             continue;
         }
-        let v = verify(cand);
-        if v.better_than(&best, p.safe_risk, p.danger_risk) {
+        if let Some(v) = verify_to_beat(cand, &best)
+            && v.better_than(&best, p.safe_risk, p.danger_risk)
+        {
             best = v;
             best_tail = cand.clone();
         }
@@ -641,10 +653,12 @@ pub fn plan_until(
                     continue;
                 }
                 evaluations += 1;
-                let v = verify(&cand);
                 // Only a verified wait: circling "least badly" where nothing is clear
                 // only defers the conflict.
-                if v.is_clear(p.safe_risk) && v.better_than(&best, p.safe_risk, p.danger_risk) {
+                if let Some(v) = verify_to_beat(&cand, &best)
+                    && v.is_clear(p.safe_risk)
+                    && v.better_than(&best, p.safe_risk, p.danger_risk)
+                {
                     best = v;
                     best_tail = cand;
                 }
