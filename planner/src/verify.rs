@@ -713,7 +713,7 @@ fn fly<'e>(
             acc.out.exposure_m += r * step;
         }
         steps += 1;
-        if steps % 32 == 0 && lost(&acc.out) {
+        if steps.is_multiple_of(32) && lost(&acc.out) {
             return;
         }
     }
