@@ -13,7 +13,8 @@
 //!
 //! Reported per run: statuses by kind (any 5xx other than 503 with `Retry-After` fails the
 //! run), ingest latency p50/p99/max overall, the worst per-second p99 and the seconds whose
-//! p99 is over 50 ms (`second:p99`), plans computed
+//! p99 is over 50 ms (`second:p99`), the time obstacle batches spent in the server's
+//! handlers (their `Server-Timing` phases), plans computed
 //! and refused, `/healthz` latency (worst, and seconds over 100 ms), the server's resident
 //! memory (peak and at the end), ingest throughput, and the observations acknowledged
 //! against those counted in the database afterwards (must be equal).
@@ -55,6 +56,9 @@ fn jink_token(db_url: &str, name: &str, role: &str) -> String {
 struct Tally {
     /// (second of the run, latency ms) of each ingest request.
     ingest: Vec<(u64, f64)>,
+    /// `Server-Timing` phases of the ingest answers that carry one (obstacle batches), by
+    /// name, ms; "total" is their sum.
+    ingest_phases: BTreeMap<String, Vec<f64>>,
     statuses: BTreeMap<String, u64>,
     bad: Vec<String>,
     plans_ok: u64,
@@ -163,22 +167,40 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
                                 let answer = match resp {
                                     Ok(resp) => {
                                         let st = resp.status().as_u16();
+                                        let server_ms: Vec<(String, f64)> = resp
+                                            .headers()
+                                            .get("server-timing")
+                                            .and_then(|h| h.to_str().ok())
+                                            .unwrap_or_default()
+                                            .split(", ")
+                                            .filter_map(|p| {
+                                                let (name, dur) = p.split_once(";dur=")?;
+                                                Some((name.to_string(), dur.parse::<f64>().ok()?))
+                                            })
+                                            .collect();
                                         let accepted = if st == 202 && what == "obstacles" {
                                             let v: Value = resp.json().await.unwrap_or_default();
                                             v["accepted"].as_u64().unwrap_or(0)
                                         } else {
                                             0
                                         };
-                                        Ok((st, accepted))
+                                        Ok((st, accepted, server_ms))
                                     }
                                     Err(e) => Err(e.to_string()),
                                 };
                                 let mut t = tally.lock().unwrap();
                                 match answer {
-                                    Ok((st, accepted)) => {
+                                    Ok((st, accepted, server_ms)) => {
                                         *t.statuses.entry(format!("{what} {st}")).or_default() += 1;
                                         if st == 202 {
                                             t.ingest.push((sec, ms));
+                                            if !server_ms.is_empty() {
+                                                let total = server_ms.iter().map(|p| p.1).sum();
+                                                t.ingest_phases.entry("total".into()).or_default().push(total);
+                                            }
+                                            for (name, ms) in server_ms {
+                                                t.ingest_phases.entry(name).or_default().push(ms);
+                                            }
                                             t.acknowledged += accepted;
                                         } else {
                                             t.bad.push(format!("{what} {st}"));
@@ -313,6 +335,22 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
         over_50.len(),
         sec_p99.len(),
         over_50.join(" ")
+    );
+    let phases: Vec<String> = t
+        .ingest_phases
+        .iter_mut()
+        .map(|(k, v)| {
+            format!(
+                "{k} {:.2}/{:.2}/{:.2}",
+                pct(v, 0.5),
+                pct(v, 0.99),
+                pct(v, 1.0)
+            )
+        })
+        .collect();
+    println!(
+        "  obstacle batches in the server's handlers (Server-Timing), ms p50/p99/max: {}",
+        phases.join(", ")
     );
     println!(
         "  plans: {} computed, {} refused with Retry-After (503/429)",
