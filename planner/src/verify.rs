@@ -397,7 +397,7 @@ pub fn verify_route<'e>(
     safe_risk: f64,
     params: &VerifyParams,
 ) -> Verification {
-    verify_inner(
+    verify_route_to_beat(
         env_at,
         state,
         tail,
@@ -410,47 +410,24 @@ pub fn verify_route<'e>(
     .expect("without a rival a verification always completes")
 }
 
-/// A verification a candidate must beat ([`Verification::better_than`] with these risks).
+/// A verification a candidate must beat ([`Verification::better_than`] with the plan's
+/// safe risk and this danger risk).
 #[derive(Debug, Clone, Copy)]
 pub struct Rival<'a> {
     /// The best route's verification so far.
     pub best: &'a Verification,
-    /// The plan's safe risk.
-    pub safe_risk: f64,
     /// The plan's danger risk.
     pub danger_risk: f64,
 }
 
 /// [`verify_route`] that stops as soon as the route cannot be better than `rival`: `None`
-/// then, else the full verification (the same as [`verify_route`]'s). Every figure a
-/// verification ranks by only grows while a route is flown forward, so once a partial
-/// verification [`Verification::cannot_beat`] the rival, the whole one cannot either; a
-/// search that keeps the best candidate picks exactly the same one, checking most losers
-/// only in part (issue 9: plan latency).
+/// then, else the full verification (the same as [`verify_route`]'s; without a rival it
+/// always completes). Every figure a verification ranks by only grows while a route is
+/// flown forward, so once a partial verification [`Verification::cannot_beat`] the rival,
+/// the whole one cannot either; a search that keeps the best candidate picks exactly the
+/// same one, checking most losers only in part (issue 9: plan latency).
 #[allow(clippy::too_many_arguments)]
 pub fn verify_route_to_beat<'e>(
-    env_at: &impl EnvAt<'e>,
-    state: &AircraftState,
-    tail: &[StackItem],
-    speed_mps: f64,
-    turn_radius_m: f64,
-    params: &VerifyParams,
-    rival: Rival<'_>,
-) -> Option<Verification> {
-    verify_inner(
-        env_at,
-        state,
-        tail,
-        speed_mps,
-        turn_radius_m,
-        rival.safe_risk,
-        params,
-        Some(rival),
-    )
-}
-
-#[allow(clippy::too_many_arguments)]
-fn verify_inner<'e>(
     env_at: &impl EnvAt<'e>,
     state: &AircraftState,
     tail: &[StackItem],
@@ -461,7 +438,7 @@ fn verify_inner<'e>(
     rival: Option<Rival<'_>>,
 ) -> Option<Verification> {
     let lost = |v: &Verification, polyline_done: bool| {
-        rival.is_some_and(|r| v.cannot_beat(r.best, r.safe_risk, r.danger_risk, polyline_done))
+        rival.is_some_and(|r| v.cannot_beat(r.best, safe_risk, r.danger_risk, polyline_done))
     };
     let env0 = env_at(state.alt_m);
     let near_end_s = state.t_s + params.near_s;
@@ -991,8 +968,8 @@ mod tests {
             let p = VerifyParams::default();
             let va = verify_route(&env_at, &s, &ta, 20.0, 40.0, 0.05, &p);
             let vb = verify_route(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p);
-            let rival = Rival { best: &va, safe_risk: 0.05, danger_risk: danger };
-            match verify_route_to_beat(&env_at, &s, &tb, 20.0, 40.0, &p, rival) {
+            let rival = Rival { best: &va, danger_risk: danger };
+            match verify_route_to_beat(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p, Some(rival)) {
                 None => proptest::prop_assert!(!vb.better_than(&va, 0.05, danger), "{vb:?} beats {va:?}"),
                 Some(v) => proptest::prop_assert_eq!(v, vb),
             }
@@ -1014,17 +991,18 @@ mod tests {
             verify_route(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p),
             verify_route(&env_at, &s, &dogleg, 20.0, 40.0, 0.05, &p),
         );
-        let rival = |best| Rival {
-            best,
-            safe_risk: 0.05,
-            danger_risk: 0.5,
+        let rival = |best| {
+            Some(Rival {
+                best,
+                danger_risk: 0.5,
+            })
         };
         assert_eq!(
-            verify_route_to_beat(&env_at, &s, &dogleg, 20.0, 40.0, &p, rival(&vs)),
+            verify_route_to_beat(&env_at, &s, &dogleg, 20.0, 40.0, 0.05, &p, rival(&vs)),
             None
         );
         assert_eq!(
-            verify_route_to_beat(&env_at, &s, &straight, 20.0, 40.0, &p, rival(&vd)),
+            verify_route_to_beat(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p, rival(&vd)),
             Some(vs)
         );
     }

@@ -559,10 +559,18 @@ pub fn plan_until(
     let verify_to_beat = |tail: &[StackItem], best: &Verification| {
         let rival = Rival {
             best,
-            safe_risk: p.safe_risk,
             danger_risk: p.danger_risk,
         };
-        verify_route_to_beat(&env_at, s, tail, speed, turn_r, &p.verify, rival)
+        verify_route_to_beat(
+            &env_at,
+            s,
+            tail,
+            speed,
+            turn_r,
+            p.safe_risk,
+            &p.verify,
+            Some(rival),
+        )
     };
     let v_base = verify(&base_tail);
     // A candidate must fly every fixed item of the stack, in order (never skip a waypoint).
