@@ -170,6 +170,12 @@ pub struct Replan<'a> {
     pub strategy: Strategy,
     /// Plan seed.
     pub seed: u64,
+    /// How long the next fixed item of the stack (from `current_index` on) has already
+    /// been the target, seconds of mission time: the caller keeps it (the server from the
+    /// base revision's record, the simulator per run). It lowers the delay credit of the
+    /// verification ([`crate::verify::VerifyParams::delay_credit_s`]), so a waypoint is put
+    /// off for at most that long in all. `None`: unknown, taken as 0.
+    pub target_pending_s: Option<f64>,
 }
 
 /// A plan and the dynamic risk it saw.
@@ -349,6 +355,8 @@ pub fn replan(
     };
     let mut params = cfg.plan;
     params.strategy = r.strategy;
+    let pending = r.target_pending_s.filter(|p| p.is_finite()).unwrap_or(0.0);
+    params.verify.delay_credit_s = (params.verify.delay_credit_s - pending.max(0.0)).max(0.0);
     params.variability = dynamic.variability;
     let req = PlanRequest {
         mission: r.mission,

@@ -48,7 +48,7 @@ pub struct VerifyParams {
     /// Spacing of the checks along both paths, metres. Default 3.
     pub step_m: f64,
     /// Dynamic risk within this many seconds of the start counts as "near" (the time the
-    /// aircraft needs to turn away), seconds. Default 20.
+    /// aircraft needs to turn away), seconds. Default 10.
     pub near_s: f64,
     /// The risk a route may meet at the end of the horizon. The limit is the plan's safe
     /// risk up to [`VerifyParams::near_s`], then grows linearly to this at the horizon:
@@ -68,6 +68,13 @@ pub struct VerifyParams {
     /// The autopilot's waypoint acceptance radius, metres (it switches to the next item
     /// within it or once past the item's finish line). Default 10.
     pub acceptance_m: f64,
+    /// How much later than straight progress along the mission a route may reach a place
+    /// and still be judged by the looser far limit of its later arrival, seconds: a wait
+    /// for a sphere to go by earns at most this much (see the module docs).
+    /// [`crate::replan`] lowers it by the time the next waypoint has already been the
+    /// target ([`crate::Replan::target_pending_s`]), so putting a waypoint off is bounded in
+    /// total, not per replan. Default 60.
+    pub delay_credit_s: f64,
 }
 
 impl Default for VerifyParams {
@@ -79,6 +86,7 @@ impl Default for VerifyParams {
             l1_s: 0.75 * 17.0 / std::f64::consts::PI,
             capture_m: 25.0,
             acceptance_m: 10.0,
+            delay_credit_s: 60.0,
         }
     }
 }
@@ -305,6 +313,50 @@ impl Verification {
     }
 }
 
+/// The progress clock of the time-graded limit: when the aircraft could be at a point of
+/// the route had it flown straight from its position through the fixed items passed so
+/// far (mission and search waypoints) and on to the point, plus a delay credit
+/// ([`VerifyParams::delay_credit_s`]); never later than the route's own clock (the
+/// straight progress is never later, by the triangle inequality). A detour reaches a place
+/// later but no farther along the mission: beyond the credit, the limit there does not grow
+/// with the delay. Without the bound, a route that puts off reaching a waypoint in a risky
+/// neighbourhood (a slow sphere circling near it) read the same risk against a looser
+/// limit, every replan put it off again, and the aircraft loitered until the scenario ended
+/// (issue 10: the runs that ran out of time, 3-4 km of detours round one waypoint).
+#[derive(Debug, Clone, Copy)]
+struct Progress {
+    t0_s: f64,
+    speed_mps: f64,
+    credit_s: f64,
+    /// The last fixed item passed (the aircraft at first).
+    anchor: Point,
+    /// Straight-line length from the aircraft through the fixed items passed to `anchor`.
+    done_m: f64,
+}
+
+impl Progress {
+    fn new(state: &AircraftState, speed_mps: f64, credit_s: f64) -> Self {
+        Self {
+            t0_s: state.t_s,
+            speed_mps,
+            credit_s: credit_s.max(0.0),
+            anchor: state.p_m,
+            done_m: 0.0,
+        }
+    }
+    /// The clock at `p`.
+    fn at(&self, p: Point) -> f64 {
+        self.t0_s + (self.done_m + dist(self.anchor, p)) / self.speed_mps + self.credit_s
+    }
+    /// `it` has been passed.
+    fn pass(&mut self, it: &StackItem) {
+        if it.is_fixed() {
+            self.done_m += dist(self.anchor, it.p_m);
+            self.anchor = it.p_m;
+        }
+    }
+}
+
 /// Per-leg environments: the risk field, zones and cylinders seen at an altitude.
 pub trait EnvAt<'e>: Fn(f64) -> LegEnv<'e> {}
 impl<'e, F: Fn(f64) -> LegEnv<'e>> EnvAt<'e> for F {}
@@ -325,17 +377,22 @@ struct Acc<'a> {
 }
 
 impl Acc<'_> {
-    fn risk(&mut self, env: &LegEnv<'_>, p: Point, t: f64) -> f64 {
+    /// Reads the risk at `p` at its arrival time `t`, against the limit at the progress
+    /// clock `t_limit_s` (at most `t`; see [`Progress`]).
+    fn risk(&mut self, env: &LegEnv<'_>, p: Point, t: f64, t_limit_s: f64) -> f64 {
         if t > env.horizon_end_s {
             return 0.0;
         }
         let r = env.risk.risk(p, t);
         self.out.peak_risk = self.out.peak_risk.max(r);
-        let limit = if t <= self.near_end_s {
+        if t <= self.near_end_s {
             self.out.near_peak_risk = self.out.near_peak_risk.max(r);
+        }
+        let t_limit_s = t_limit_s.min(t);
+        let limit = if t_limit_s <= self.near_end_s {
             self.safe_risk
         } else {
-            self.safe_risk + self.limit_slope * (t - self.near_end_s)
+            self.safe_risk + self.limit_slope * (t_limit_s - self.near_end_s)
         };
         let graded = if limit > 0.0 {
             r * self.safe_risk / limit
@@ -458,12 +515,14 @@ pub fn verify_route_to_beat<'e>(
     };
     let step = params.step_m.max(0.5);
     let horizon_end = env0.horizon_end_s;
+    let delay_credit_s = params.delay_credit_s;
 
     // Where the aircraft is now counts too (nothing can change it, but it is real risk).
     acc.cylinders(state.alt_m, state.p_m, state.t_s, 0.0);
-    acc.risk(&env0, state.p_m, state.t_s);
+    acc.risk(&env0, state.p_m, state.t_s, state.t_s);
     // The polyline, on its own clock.
     let (mut prev, mut prev_alt, mut t) = (state.p_m, state.alt_m, state.t_s);
+    let mut progress = Progress::new(state, speed_mps, delay_credit_s);
     for (i, it) in tail.iter().enumerate() {
         let alt = prev_alt.min(it.alt_m);
         let env = env_at(alt);
@@ -481,9 +540,10 @@ pub fn verify_route_to_beat<'e>(
             let tk = t + f * l / speed_mps;
             acc.cylinders(alt, p, tk, acc.out.length_m + f * l);
             if tk <= horizon_end {
-                acc.risk(&env, p, tk);
+                acc.risk(&env, p, tk, progress.at(p));
             }
         }
+        progress.pass(it);
         t += l / speed_mps;
         acc.out.length_m += l;
         prev = it.p_m;
@@ -531,6 +591,7 @@ pub fn verify_route_to_beat<'e>(
             step,
             horizon_end,
             guidance,
+            delay_credit_s,
             &|v| lost(v, true),
         );
     }
@@ -572,6 +633,7 @@ fn fly<'e>(
     step: f64,
     horizon_end: f64,
     guidance: Guidance,
+    delay_credit_s: f64,
     lost: &dyn Fn(&Verification) -> bool,
 ) {
     if tail.is_empty() || turn_radius_m <= 0.0 {
@@ -587,6 +649,7 @@ fn fly<'e>(
     let mut leg_from = state.p_m;
     let mut i = 0;
     let mut s_m = 0.0;
+    let mut progress = Progress::new(state, speed_mps, delay_credit_s);
     acc.restart_path();
     // Time allowed to reach an item: the straight time plus two full circles.
     let circle_s = std::f64::consts::TAU * turn_radius_m / speed_mps;
@@ -644,6 +707,7 @@ fn fly<'e>(
                 acc.out.first_missed.get_or_insert(i);
             }
             closest = f64::INFINITY;
+            progress.pass(&it);
             leg_from = it.p_m;
             alt_prev = it.alt_m;
             i += 1;
@@ -685,7 +749,7 @@ fn fly<'e>(
         t += dt;
         s_m += step;
         acc.cylinders(alt, p, t, s_m);
-        let r = acc.risk(&env, p, t);
+        let r = acc.risk(&env, p, t, progress.at(p));
         if guidance == Guidance::Pursuit {
             acc.out.exposure_m += r * step;
         }
@@ -760,6 +824,16 @@ mod tests {
         s: &AircraftState,
         tail: &[StackItem],
     ) -> Verification {
+        check_with(risk, cylinders, s, tail, &VerifyParams::default())
+    }
+
+    fn check_with(
+        risk: &dyn RiskField,
+        cylinders: &[Cylinder],
+        s: &AircraftState,
+        tail: &[StackItem],
+        params: &VerifyParams,
+    ) -> Verification {
         let zones = Zones::default();
         let env_at = |alt_m| LegEnv {
             risk,
@@ -770,7 +844,7 @@ mod tests {
             speed_mps: 20.0,
             horizon_end_s: 60.0,
         };
-        verify_route(&env_at, s, tail, 20.0, 40.0, 0.05, &VerifyParams::default())
+        verify_route(&env_at, s, tail, 20.0, 40.0, 0.05, params)
     }
 
     #[test]
@@ -1047,10 +1121,10 @@ mod tests {
 
     #[test]
     fn the_risk_limit_is_graded_in_time_a_wall_near_and_a_cost_far() {
-        // Flying north at 20 m/s the band is met at t = 25 s. Starting at y = 0 it is
-        // 5 s past the near window: the limit there is 0.05 + 0.25 * 5 / 40 = 0.081,
-        // below 0.2: unclear. Starting at y = -600, it is met at t = 55 s, where the
-        // limit is 0.05 + 0.25 * 35 / 40 = 0.269: clear.
+        // Flying north at 20 m/s the band is met at t = 24 s. Starting at y = 0 it is
+        // 14 s past the 10 s near window: the limit there is 0.05 + 0.25 * 14 / 50 =
+        // 0.12, below 0.2: unclear. Starting at y = -600, it is met at t = 54 s, where the
+        // limit is 0.05 + 0.25 * 44 / 50 = 0.27: clear.
         let tail = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
         let near = check(&Band, &[], &state(0.0), &tail);
         assert!(!near.is_clear(0.05), "{near:?}");
@@ -1063,11 +1137,74 @@ mod tests {
             (far.peak_risk - 0.2).abs() < 1e-12,
             "the raw peak is still reported"
         );
-        let want = 0.2 * 0.05 / (0.05 + 0.25 * 35.0 / 40.0);
+        let want = 0.2 * 0.05 / (0.05 + 0.25 * 44.0 / 50.0);
         assert!((far.graded_peak_risk - want).abs() < 0.01, "{far:?}");
         // A far band is still worse than no band at all when lengths are equal.
         let clean = check(&NoRisk, &[], &s, &tail);
         assert!(!far.better_than(&clean, 0.05, 0.25));
+    }
+
+    /// Risk 0.2 within 60 m of (0, 500) at every time: a slow sphere circling near a
+    /// waypoint, its far prediction spread round its orbit.
+    struct Ring;
+    impl RiskField for Ring {
+        fn risk(&self, p: [f64; 2], _t: f64) -> f64 {
+            if dist(p, [0.0, 500.0]) < 60.0 {
+                0.2
+            } else {
+                0.0
+            }
+        }
+    }
+
+    #[test]
+    fn putting_off_a_waypoint_in_a_risky_neighbourhood_is_credited_only_up_to_the_delay_credit() {
+        // The waypoint is 500 m north: flown straight, the ring is met at t = 22 s, where
+        // the limit is 0.05 + 0.25 * 12 / 50 = 0.11 < 0.2: unclear. A detour through
+        // (450, 250) meets the ring at t = 48 s, 26 s late; with the default 60 s of
+        // credit the limit there is that of its own arrival, 0.24 > 0.2: clear (a wait for
+        // a sphere to go by). With no credit left (the waypoint put off at every replan
+        // for a minute), the ring is read as far along the mission as straight: the
+        // detour is no clearer than flying straight.
+        let wp = StackItem::mission(0, [0.0, 500.0], 100.0);
+        let direct = check(&Ring, &[], &state(0.0), &[wp]);
+        assert!(!direct.is_clear(0.05), "{direct:?}");
+        let route = [StackItem::avoid([450.0, 250.0], 100.0), wp];
+        let waited = check(&Ring, &[], &state(0.0), &route);
+        assert!(waited.is_clear(0.05), "{waited:?}");
+        let spent = VerifyParams {
+            delay_credit_s: 0.0,
+            ..VerifyParams::default()
+        };
+        assert!(check_with(&Ring, &[], &state(0.0), &[wp], &spent) == direct);
+        let detour = check_with(&Ring, &[], &state(0.0), &route, &spent);
+        assert!(detour.length_m > direct.length_m + 500.0);
+        assert!(!detour.is_clear(0.05), "{detour:?}");
+        assert!(
+            matches!(detour.conflict, Some(Conflict::Risk { t_s, .. }) if t_s > 45.0),
+            "the ring is met late on the detour: {detour:?}"
+        );
+        // The same risk read as far along the mission: the same graded peak within the
+        // few metres the entry points differ by.
+        assert!(
+            (detour.graded_peak_risk - direct.graded_peak_risk).abs()
+                < 0.1 * direct.graded_peak_risk,
+            "{} vs {}",
+            detour.graded_peak_risk,
+            direct.graded_peak_risk
+        );
+        // Past the waypoint the clock goes on from it: a second waypoint 1,100 m beyond
+        // the start of a long straight route, met at 55 s, keeps the far limit.
+        let mut s = state(0.0);
+        s.p_m = [0.0, -600.0];
+        let far = check_with(
+            &Ring,
+            &[],
+            &s,
+            &[StackItem::mission(0, [0.0, -100.0], 100.0), wp],
+            &spent,
+        );
+        assert!(far.is_clear(0.05), "{far:?}");
     }
 
     #[test]

@@ -69,6 +69,7 @@ fn request<'a>(m: &'a Mission, stack: &'a [StackItem]) -> Replan<'a> {
         current_index: 1,
         strategy: Strategy::Bisection,
         seed: 11,
+        target_pending_s: None,
     }
 }
 

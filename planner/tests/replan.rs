@@ -57,6 +57,7 @@ fn request<'a>(m: &'a Mission, stack: &'a [planner::StackItem], seed: u64) -> Re
         current_index: 1,
         strategy: Strategy::Bisection,
         seed,
+        target_pending_s: None,
     }
 }
 
@@ -129,4 +130,57 @@ fn the_map_grid_covers_the_fly_zones_and_home_plus_the_margin() {
     assert_eq!(g.max_m, [2400.0, 900.0]);
     assert_eq!(g.cell_m, 10.0);
     assert_eq!(g.horizon_s, 60.0);
+}
+
+/// Risk 0.2 within 60 m of (500, 0) at every time: a sphere circling near a waypoint.
+struct Ring;
+impl predictor::RiskField for Ring {
+    fn risk(&self, p: [f64; 2], _t: f64) -> f64 {
+        if (p[0] - 500.0).hypot(p[1]) < 60.0 {
+            0.2
+        } else {
+            0.0
+        }
+    }
+}
+
+#[test]
+fn the_time_a_waypoint_has_been_pending_uses_up_the_delay_a_route_may_take_to_reach_it() {
+    // The stack flown: a loop north through (250, 450), then the waypoint at (500, 0)
+    // inside the ring, met some 48 s ahead instead of 22 s straight. While the waypoint is
+    // new, the delay is credited and the ring is read against the looser limit of its
+    // later arrival: clear. After 100 s of putting the waypoint off, none is left: the ring
+    // counts as if flown straight, and the same stack is no longer clear.
+    let m = mission();
+    let stack = [
+        planner::StackItem::avoid([250.0, 450.0], 100.0),
+        planner::StackItem::mission(1, [500.0, 0.0], 100.0),
+    ];
+    let cfg = ReplanConfig::default();
+    let plan_with = |pending: Option<f64>| {
+        let r = Replan {
+            current_index: 0,
+            strategy: Strategy::None,
+            target_pending_s: pending,
+            ..request(&m, &stack, 5)
+        };
+        replan(&r, Dynamic::Field(&Ring), &cfg, &Termination::none())
+            .expect("plan")
+            .plan
+    };
+    let fresh = plan_with(None);
+    assert_eq!(fresh.items, stack, "strategy none keeps the stack");
+    assert!(
+        fresh.verification.is_clear(cfg.plan.safe_risk),
+        "{:?}",
+        fresh.verification
+    );
+    assert_eq!(fresh.verification, plan_with(Some(0.0)).verification);
+    let late = plan_with(Some(100.0));
+    assert!(
+        !late.verification.is_clear(cfg.plan.safe_risk),
+        "{:?}",
+        late.verification
+    );
+    assert!((late.verification.peak_risk - 0.2).abs() < 1e-12);
 }

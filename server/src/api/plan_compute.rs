@@ -89,6 +89,10 @@ pub struct PlanInputs {
     pub start: Start,
     /// The observations.
     pub observations: Observations,
+    /// Since when (mission seconds, the start's clock) the next fixed item of the stack
+    /// from `current_index` on has been the target: carried from the base revision while
+    /// the target stays the same ([`planner::Replan::target_pending_s`]). `None`: unknown.
+    pub target_since_s: Option<f64>,
 }
 
 /// The mission's own waypoints as a stack.
@@ -248,6 +252,7 @@ pub fn compute(
         current_index: inputs.current_index,
         strategy: inputs.strategy,
         seed: inputs.seed,
+        target_pending_s: inputs.target_since_s.map(|since| (s.t_s - since).max(0.0)),
     };
     let mut until = planner::Termination::deadline(deadline);
     if let Some(flag) = cancel {
@@ -365,6 +370,9 @@ pub fn plan_out(
         observation_seq: c.observation_seq,
         map_lag_batches: 0,
         map_age_ms: 0.0,
+        target_pending_s: inputs
+            .target_since_s
+            .map(|since| (inputs.start.at.t_s - since).max(0.0)),
         written_by: crate::auth::writer(),
         start: StartOut::from(&inputs.start),
         created_at: format_rfc3339(now),

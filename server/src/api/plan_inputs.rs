@@ -57,6 +57,10 @@ pub struct InputsRecord {
     pub start: StoredStart,
     /// Which observations the snapshot was built from.
     pub observations: StoredObservations,
+    /// Since when the next fixed item has been the target (absent in plans stored before
+    /// it was kept: replayed as unknown, as they were planned).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_since_s: Option<f64>,
 }
 
 /// A stored strategy name.
@@ -151,6 +155,7 @@ impl InputsRecord {
                         .collect(),
                 ),
             },
+            target_since_s: inputs.target_since_s,
         }
     }
 
@@ -199,6 +204,7 @@ impl InputsRecord {
                         .collect(),
                 ),
             },
+            target_since_s: self.target_since_s,
         })
     }
 
@@ -369,6 +375,7 @@ mod tests {
                 },
             },
             observations,
+            target_since_s: None,
         }
     }
 

@@ -79,6 +79,9 @@ pub struct PlanRecord {
     /// Age of the oldest of them, milliseconds.
     #[serde(default, skip_serializing_if = "is_zero_f64")]
     pub map_age_ms: f64,
+    /// How long the next waypoint had been the target (records before it: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_pending_s: Option<f64>,
 }
 
 fn is_zero(v: &i64) -> bool {
@@ -155,6 +158,7 @@ impl PlanRecord {
             observation_seq: o.observation_seq,
             map_lag_batches: o.map_lag_batches,
             map_age_ms: o.map_age_ms,
+            target_pending_s: o.target_pending_s,
         }
     }
 
@@ -195,6 +199,7 @@ impl PlanRecord {
             observation_seq: self.observation_seq,
             map_lag_batches: self.map_lag_batches,
             map_age_ms: self.map_age_ms,
+            target_pending_s: self.target_pending_s,
             written_by: row.written_by.clone(),
             start: StartOut::from(&Start::from(&self.start)),
             created_at: format_rfc3339(row.created_at_s),
@@ -360,6 +365,7 @@ mod tests {
             observation_seq: 9,
             map_lag_batches: 1,
             map_age_ms: 2.5,
+            target_pending_s: Some(12.5),
             written_by: "ops".into(),
             start: StartOut {
                 source: StartSource::Telemetry,

@@ -163,6 +163,14 @@ pub struct PlanOut {
     /// it, milliseconds (0 when `map_lag_batches` is 0). A replay reports its own (0).
     #[serde(default)]
     pub map_age_ms: f64,
+    /// How long the next waypoint of the stack had already been the target when the plan
+    /// was made, seconds on the start's clock (carried from the base revision while that
+    /// waypoint stays next). A route may reach a place at most `60 - target_pending_s`
+    /// seconds later than straight progress along the mission and still be judged by the
+    /// looser limit of its later arrival, so a waypoint is put off for at most 60 s in all.
+    /// Absent when no waypoint is left (and in plans stored before it was kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target_pending_s: Option<f64>,
     /// The name of the token that stored the plan, or `local` (no token).
     #[serde(default = "crate::auth::local")]
     pub written_by: String,

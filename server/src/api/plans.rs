@@ -153,8 +153,10 @@ async fn create_plan(
             "base_revision {base_revision} is older than the latest revision {latest}: plan from revision {latest}"
         )));
     }
-    let (stack, base_current) = if base_revision == 0 {
-        (Vec::new(), 0)
+    // The base revision's stack, current index and pursuit of its next fixed item (the
+    // item's index in that stack and since when it has been the target).
+    let (stack, base_current, base_target) = if base_revision == 0 {
+        (Vec::new(), 0, None)
     } else {
         let row = state
             .store
@@ -163,7 +165,9 @@ async fn create_plan(
             .ok_or_else(|| ApiError::field("/base_revision", "no such revision"))?;
         let out = stored_plan_out(&row)?;
         let stack: Vec<GeoItem> = out.waypoints.iter().map(GeoItem::from).collect();
-        (stack, out.current_index)
+        let since = stored_inputs(&row)?.target_since_s;
+        let target = next_fixed(&stack, 0, out.current_index).zip(since);
+        (stack, out.current_index, target)
     };
     let stack_len = if stack.is_empty() {
         mission.content.waypoints.len()
@@ -220,6 +224,16 @@ async fn create_plan(
         },
         None => stack_start(&mission, &stack, current_index, now),
     };
+    // Putting the next waypoint off is bounded in total (planner::Replan::target_pending_s):
+    // the clock runs from the first plan that flew toward it, on the start's clock.
+    let target_since_s = match (
+        next_fixed(&stack, mission.content.waypoints.len(), current_index),
+        base_target,
+    ) {
+        (Some(k), Some((base_k, since))) if k == base_k => Some(since),
+        (Some(_), _) => Some(start.at.t_s),
+        (None, _) => None,
+    };
     let max_age = body.max_map_age_ms.map(std::time::Duration::from_millis);
     let (snap, lag) = state.live.plan_snapshot(&state, &mission, max_age).await?;
     timing.lap("snapshot");
@@ -236,6 +250,7 @@ async fn create_plan(
         stack,
         start,
         observations: Observations::Through(snap.seq),
+        target_since_s,
     };
     let (m2, in2) = (mission.clone(), inputs.clone());
     let cancel = CancelOnDrop::default();
@@ -383,4 +398,17 @@ pub fn router() -> OpenApiRouter<AppState> {
     OpenApiRouter::new()
         .routes(routes!(create_plan))
         .routes(routes!(replay_plan))
+}
+
+/// Index of the first fixed item (not an avoid item) at or after `current_index` in
+/// `stack`, or in the mission's own `mission_len` waypoints when `stack` is empty.
+fn next_fixed(stack: &[GeoItem], mission_len: usize, current_index: usize) -> Option<usize> {
+    if stack.is_empty() {
+        return (current_index < mission_len).then_some(current_index);
+    }
+    stack
+        .get(current_index..)?
+        .iter()
+        .position(|g| g.kind != planner::ItemKind::Avoid)
+        .map(|k| current_index + k)
 }

@@ -200,6 +200,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
         stack: Vec::new(),
         start,
         observations: Observations::Given(observations),
+        target_since_s: None,
     };
     let computed = match compute(&m, &inputs, &snap, None) {
         Ok(c) => c,

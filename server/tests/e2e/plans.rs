@@ -15,6 +15,7 @@ both_stores!(
     insert_waypoint_answers_the_seed_004_example,
     a_stored_plan_replays_identically_even_after_more_telemetry,
     the_search_area_ladder_covers_the_search_grid_with_validated_parameters,
+    the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_revision,
 );
 
 /// Time of obstacle "0"'s first observation, Unix seconds.
@@ -548,4 +549,72 @@ fn jink_plan_starts_from_a_given_position_and_writes_wpl_and_qgc_plan_files() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(err.contains(flag), "{err}");
     }
+}
+
+/// Index of the first mission waypoint at or after `from` in a plan's stack.
+fn next_mission_item(plan: &Value, from: usize) -> usize {
+    let wps = plan["waypoints"].as_array().unwrap();
+    from + wps[from..]
+        .iter()
+        .position(|w| w["kind"] == "mission")
+        .expect("a mission waypoint is left")
+}
+
+async fn the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_revision(app: App) {
+    let id = webster_with_traffic(&app).await;
+    let telemetry = |t: f64| {
+        json!({"t": t, "lat": AIRCRAFT.0, "lon": AIRCRAFT.1, "alt_msl_m": 60.96,
+               "heading_deg": 60.0, "speed_mps": AIRCRAFT.2})
+    };
+    // The first plan starts the clock of its next waypoint (telemetry at T0 + 10).
+    let p1 = plan(&app, &id, json!({"seed": 1, "current_index": 1})).await;
+    assert_eq!(p1["target_pending_s"], 0.0, "{p1}");
+    // 30 s later, still flying toward the same waypoint: 30 s pending.
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/telemetry"),
+            &telemetry(T0 + 40.0),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    let p2 = plan(
+        &app,
+        &id,
+        json!({"seed": 2, "base_revision": 1, "current_index": 1}),
+    )
+    .await;
+    assert_eq!(p2["target_pending_s"], 30.0, "{p2}");
+    // The stored plan says the same, and replays identically from what it recorded.
+    let plan_id = p2["plan_id"].as_str().unwrap();
+    let stored: Value = app
+        .get_json(&format!("/api/v1/missions/{id}/plans/{plan_id}"))
+        .await;
+    assert_eq!(stored["target_pending_s"], 30.0, "{stored}");
+    let replay_path = format!("/api/v1/missions/{id}/plans/{plan_id}/replay");
+    let v: Value = app
+        .client
+        .post(app.url(&replay_path))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(v["identical"], true, "{v}");
+    // Past that waypoint the next one is new: its clock starts again.
+    let past = next_mission_item(&p2, 1) + 1;
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/telemetry"),
+            &telemetry(T0 + 45.0),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    let p3 = plan(
+        &app,
+        &id,
+        json!({"seed": 3, "base_revision": 2, "current_index": past}),
+    )
+    .await;
+    assert_eq!(p3["target_pending_s"], 0.0, "{p3}");
 }

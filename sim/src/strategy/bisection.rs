@@ -38,6 +38,7 @@ pub struct Bisection {
     seed: u64,
     calls: u64,
     live_ms: Option<f64>,
+    clock: super::TargetClock,
 }
 
 impl Bisection {
@@ -52,6 +53,7 @@ impl Bisection {
             seed,
             calls: 0,
             live_ms: None,
+            clock: super::TargetClock::default(),
         }
     }
 
@@ -93,6 +95,7 @@ impl Strategy for Bisection {
         let live = planner::live_map(&self.predictor, view.mission, &self.config);
         let obstacles: Vec<predictor::ObstacleSummary> = self.predictor.obstacles().collect();
         self.live_ms = Some(started.elapsed().as_secs_f64() * 1e3);
+        let pending = self.clock.pending_s(view);
         match live {
             Ok(Some(live)) => super::replan_command(
                 view,
@@ -102,14 +105,18 @@ impl Strategy for Bisection {
                 },
                 &self.config,
                 seed,
+                pending,
             ),
-            Ok(None) => super::replan_command(view, planner::Dynamic::None, &self.config, seed),
+            Ok(None) => {
+                super::replan_command(view, planner::Dynamic::None, &self.config, seed, pending)
+            }
             // A degenerate mission: the plan reports it (and the stack is kept).
             Err(_) => super::replan_command(
                 view,
                 planner::Dynamic::Predictor(&self.predictor),
                 &self.config,
                 seed,
+                pending,
             ),
         }
     }

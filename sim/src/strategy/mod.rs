@@ -180,14 +180,42 @@ impl StrategyKind {
     }
 }
 
+/// How long the stack's next fixed item has been the target, kept across calls as the
+/// server keeps it across plan revisions ([`planner::Replan::target_pending_s`]).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct TargetClock {
+    /// The next fixed item (its position, bit for bit) and since when, mission seconds.
+    target: Option<([u64; 2], f64)>,
+}
+
+impl TargetClock {
+    /// Seconds the next fixed item of `view`'s stack has been the target (0 when it has
+    /// just become the target), `None` when no fixed item is left.
+    pub fn pending_s(&mut self, view: &View<'_>) -> Option<f64> {
+        let stack = view.stack;
+        let next = stack.items[stack.current.min(stack.items.len())..]
+            .iter()
+            .find(|i| i.is_fixed())
+            .map(|i| [i.p_m[0].to_bits(), i.p_m[1].to_bits()]);
+        self.target = match (next, self.target) {
+            (Some(k), Some((old, since))) if k == old => Some((k, since)),
+            (Some(k), _) => Some((k, view.t_s)),
+            (None, _) => None,
+        };
+        self.target.map(|(_, since)| view.t_s - since)
+    }
+}
+
 /// Replans `view`'s stack through the server's seam ([`planner::replan`]) with `dynamic`
-/// risk, `cfg` and plan seed `seed`, without a deadline (reproducible): the new stack, or
-/// the old one kept on bad input (a non-finite state).
+/// risk, `cfg` and plan seed `seed`, without a deadline (reproducible), the next fixed
+/// item having been the target for `pending_s`: the new stack, or the old one kept on bad
+/// input (a non-finite state).
 pub fn replan_command(
     view: &View<'_>,
     dynamic: planner::Dynamic<'_>,
     cfg: &planner::ReplanConfig,
     seed: u64,
+    pending_s: Option<f64>,
 ) -> Command {
     let r = planner::Replan {
         mission: view.mission,
@@ -197,6 +225,7 @@ pub fn replan_command(
         current_index: view.stack.current,
         strategy: planner::Strategy::Bisection,
         seed,
+        target_pending_s: pending_s,
     };
     match planner::replan(&r, dynamic, cfg, &planner::Termination::none()) {
         Ok(p) => Command::Replace(Stack {

@@ -45,6 +45,7 @@ pub struct Oracle {
     pub period_s: f64,
     seed: u64,
     calls: u64,
+    clock: super::TargetClock,
 }
 
 impl Oracle {
@@ -59,6 +60,7 @@ impl Oracle {
             period_s: 1.0,
             seed,
             calls: 0,
+            clock: super::TargetClock::default(),
         }
     }
 }
@@ -82,6 +84,13 @@ impl Strategy for Oracle {
             alt_hi_m: hi,
         };
         let seed = planner::plan::leg_seed(self.seed, self.calls as usize, 0);
-        super::replan_command(view, planner::Dynamic::Field(&truth), &self.config, seed)
+        let pending = self.clock.pending_s(view);
+        super::replan_command(
+            view,
+            planner::Dynamic::Field(&truth),
+            &self.config,
+            seed,
+            pending,
+        )
     }
 }
