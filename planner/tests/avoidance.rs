@@ -554,3 +554,59 @@ fn cornered_in_the_fly_zone_the_plan_escapes_out_of_it_rather_than_into_a_sphere
         gap(&q)
     );
 }
+
+/// Minimum clearance (metres, negative inside) from the cylinder at `c` of radius `r` of
+/// an independent model flight of `items`: 20 m/s, at most 20 / `turn_r_m` rad/s,
+/// heading straight for each item and switching within 10 m of it, for 60 s.
+fn flown_clearance(s: &AircraftState, items: &[StackItem], turn_r_m: f64, c: Point, r: f64) -> f64 {
+    let (dt, v) = (0.02, 20.0);
+    let (mut p, mut th) = (s.p_m, std::f64::consts::FRAC_PI_2 - s.heading_rad);
+    let mut best = dist(p, c) - r;
+    let mut i = 0;
+    let mut t = 0.0;
+    while i < items.len() && t < 60.0 {
+        let q = items[i].p_m;
+        if dist(p, q) <= 10.0 {
+            i += 1;
+            continue;
+        }
+        let want = (q[1] - p[1]).atan2(q[0] - p[0]);
+        let mut d = want - th;
+        d = (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+        th += d.clamp(-v / turn_r_m * dt, v / turn_r_m * dt);
+        p = [p[0] + v * dt * th.cos(), p[1] + v * dt * th.sin()];
+        best = best.min(dist(p, c) - r);
+        t += dt;
+    }
+    best
+}
+
+#[test]
+fn a_route_whose_flight_clips_a_cylinder_is_escaped_even_with_no_moving_obstacle() {
+    // Flying north at (0, 0), the next waypoint 120 m east: the leg passes 50 m south of
+    // a 12 m cylinder at (40, 50), but the aircraft must first turn right at its 40 m
+    // radius, and that turn passes through the cylinder (Webster Field, spline seed 137,
+    // clipped a cylinder so, the detour points all behind it or inside a turning circle).
+    // The detour net is cut down to points straight toward the target, so only an escape
+    // manoeuvre (a turn the other way first) can clear it.
+    let c = [40.0, 50.0];
+    let mission = common::open_mission(
+        vec![common::cylinder(c, 12.0)],
+        &[[0.0, -100.0], [120.0, 0.0]],
+    );
+    let stack = mission_stack(&mission);
+    let mut req = static_request(&mission, &stack);
+    req.state.heading_rad = 0.0;
+    req.params.detour.max_bearing_deg = 0.0;
+    let turn_r = req.aircraft.turn_radius_m;
+    let as_given = flown_clearance(&req.state, &stack[1..], turn_r, c, 12.0);
+    assert!(
+        as_given < 0.0,
+        "the stack as given is clipped: {as_given:.1} m"
+    );
+    let p = plan(&req, &NoRisk).unwrap();
+    let gap = flown_clearance(&req.state, &p.items[p.current_index..], turn_r, c, 12.0);
+    assert!(gap > 0.0, "clips the cylinder by {:.1} m: {p:?}", -gap);
+    assert_eq!(p.verification.cylinder_hits, 0, "{p:?}");
+    assert!(p.items.iter().any(|i| i.kind == ItemKind::Avoid), "{p:?}");
+}

@@ -626,10 +626,15 @@ pub fn plan_until(
                 .polygons()
                 .iter()
                 .any(|z| z.boundary_distance(s.p_m) <= escape_reach);
-        if best.near_peak_risk > p.danger_risk && near_zone && !term.should_stop() {
-            // Danger: a conflict within the near window that no detour clears. Escape
-            // manoeuvres (hard turns, then straight), which may leave the fly zone; the
-            // ranking puts the near-term risk before the fly zone here.
+        if (best.near_peak_risk > p.danger_risk || best.cylinder_hits > 0)
+            && near_zone
+            && !term.should_stop()
+        {
+            // Danger: a conflict within the near window that no detour clears, or a route
+            // whose flight clips a cylinder (the aircraft close by, heading for it, every
+            // detour point unreachable or behind it: Webster Field, spline seed 137).
+            // Escape manoeuvres (hard turns, then straight), which may leave the fly zone;
+            // the ranking puts the near-term risk and cylinders before the fly zone here.
             let (alt, tails) = manoeuvre_start(s, &best_tail, &base_tail);
             let cands = escape_candidates(
                 s.p_m,
