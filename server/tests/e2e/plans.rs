@@ -562,21 +562,23 @@ fn next_mission_item(plan: &Value, from: usize) -> usize {
 
 async fn the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_revision(app: App) {
     let id = webster_with_traffic(&app).await;
-    let telemetry = |t: f64| {
-        json!({"t": t, "lat": AIRCRAFT.0, "lon": AIRCRAFT.1, "alt_msl_m": 60.96,
-               "heading_deg": 60.0, "speed_mps": AIRCRAFT.2})
+    // The aircraft still at waypoint 0, reporting at `t`.
+    let telemetry_at = |t: f64| {
+        let (app, id) = (&app, &id);
+        async move {
+            let body = json!({"t": t, "lat": AIRCRAFT.0, "lon": AIRCRAFT.1, "alt_msl_m": 60.96,
+                              "heading_deg": 60.0, "speed_mps": AIRCRAFT.2});
+            let r = app
+                .post_json(&format!("/api/v1/missions/{id}/telemetry"), &body)
+                .await;
+            assert_eq!(r.status(), 202);
+        }
     };
     // The first plan starts the clock of its next waypoint (telemetry at T0 + 10).
     let p1 = plan(&app, &id, json!({"seed": 1, "current_index": 1})).await;
     assert_eq!(p1["target_pending_s"], 0.0, "{p1}");
     // 30 s later, still flying toward the same waypoint: 30 s pending.
-    let r = app
-        .post_json(
-            &format!("/api/v1/missions/{id}/telemetry"),
-            &telemetry(T0 + 40.0),
-        )
-        .await;
-    assert_eq!(r.status(), 202);
+    telemetry_at(T0 + 40.0).await;
     let p2 = plan(
         &app,
         &id,
@@ -603,13 +605,7 @@ async fn the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_re
     assert_eq!(v["identical"], true, "{v}");
     // Past that waypoint the next one is new: its clock starts again.
     let past = next_mission_item(&p2, 1) + 1;
-    let r = app
-        .post_json(
-            &format!("/api/v1/missions/{id}/telemetry"),
-            &telemetry(T0 + 45.0),
-        )
-        .await;
-    assert_eq!(r.status(), 202);
+    telemetry_at(T0 + 45.0).await;
     let p3 = plan(
         &app,
         &id,
