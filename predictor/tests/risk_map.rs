@@ -254,3 +254,89 @@ fn an_invalid_resolution_schedule_is_an_error() {
         Err(RiskMapError::NotPositive(_))
     ));
 }
+
+#[test]
+fn a_map_built_from_layers_of_other_maps_equals_a_one_thread_build_bit_for_bit() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    feed(&mut p, "a", Behaviour::Uniform { w: 0.2 }, 11, [0.0, 0.0]);
+    feed(&mut p, "b", Behaviour::Straight, 12, [150.0, 50.0]);
+    feed(
+        &mut p,
+        "c",
+        Behaviour::Biased { w: 0.2 },
+        13,
+        [-150.0, 100.0],
+    );
+    feed(
+        &mut p,
+        "d",
+        Behaviour::Zigzag { w: 0.2 },
+        14,
+        [100.0, -150.0],
+    );
+    // Seen once: an analytic NoFly disc, not particles.
+    p.observe("e", obs(69.0, [50.0, 50.0], 15.0));
+    // The NoFly disc first: the parts moved between maps below are particles.
+    let ids = ["e", "b", "d", "a", "c"];
+    // No intended path (as the live map): every obstacle is a threat.
+    let (c, path, t0) = (cfg(), [], 69.5);
+    let mut one = predictor::RiskMap::new(c.clone(), &path, t0).unwrap();
+    for id in ids {
+        p.update_map_obstacle(&mut one, id);
+    }
+    // Two "threads": the first three on one map, the last two on another whose parts are
+    // then moved over, in the one-thread order.
+    let mut front = predictor::RiskMap::new(c.clone(), &path, t0).unwrap();
+    let mut back = predictor::RiskMap::new(c.clone(), &path, t0).unwrap();
+    for id in &ids[..3] {
+        p.update_map_obstacle(&mut front, id);
+    }
+    for id in &ids[3..] {
+        p.update_map_obstacle(&mut back, id);
+    }
+    for id in &ids[3..] {
+        assert!(
+            back.obstacle_mass_m2(id, 20).is_some_and(|m| m > 0.0),
+            "{id}"
+        );
+        let layer = back.take_layer(id).expect("back holds it");
+        assert_eq!(layer.id(), *id);
+        front.put_layer(layer).expect("same frame");
+    }
+    assert!(back.take_layer("d").is_none(), "taken layers leave the map");
+    let mut touched = 0;
+    for k in 0..one.slices() {
+        let t = t0 + k as f64;
+        let (a, b) = (one.slice(t), front.slice(t));
+        assert!(
+            a.data
+                .iter()
+                .zip(&b.data)
+                .all(|(x, y)| x.to_bits() == y.to_bits()),
+            "slice {k} differs"
+        );
+        touched += a.data.iter().filter(|&&r| r > 0.0).count();
+        // The map emptied by the moves is all clear again.
+        assert!(
+            back.slice(t).data.iter().all(|&r| r == 0.0),
+            "slice {k} of the emptied map"
+        );
+    }
+    assert!(touched > 1000, "the obstacles cover cells ({touched})");
+    for id in ids {
+        assert_eq!(one.is_threat(id), front.is_threat(id), "{id}");
+        assert_eq!(
+            one.obstacle_mass_m2(id, 20),
+            front.obstacle_mass_m2(id, 20),
+            "{id}"
+        );
+    }
+    // A layer of another frame (slice 0 one second later) is refused and handed back.
+    let mut later = predictor::RiskMap::new(c, &path, t0 + 1.0).unwrap();
+    p.update_map_obstacle(&mut back, "a");
+    let layer = back.take_layer("a").unwrap();
+    assert_eq!(
+        later.put_layer(layer).map_err(|l| l.id().to_owned()),
+        Err("a".to_owned())
+    );
+}

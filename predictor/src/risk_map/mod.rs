@@ -196,6 +196,35 @@ pub struct SliceView {
     pub data: Vec<f32>,
 }
 
+/// One obstacle's part of a map, taken out of it ([`RiskMap::take_layer`]) to be put into
+/// another map of the same frame ([`RiskMap::put_layer`]): how one map is built on several
+/// threads, each computing some obstacles on a map of its own. The cells are those of a
+/// one-thread build, bit for bit, when the layers are put in the order that build would
+/// have added the obstacles (an obstacle's part depends only on its input and the frame:
+/// its particles are seeded by its id).
+#[derive(Debug, Clone)]
+pub struct Layer {
+    id: String,
+    // Boxed: a layer travels between threads and back in an error.
+    frame: Box<Frame>,
+    c: Box<Contribution>,
+}
+
+impl Layer {
+    /// The obstacle's id.
+    pub fn id(&self) -> &str {
+        &self.id
+    }
+}
+
+/// What an obstacle's part depends on besides the obstacle: grid, particles, anchor, path.
+#[derive(Debug, Clone, PartialEq)]
+struct Frame {
+    cfg: RiskMapConfig,
+    t0_bits: u64,
+    path: Vec<[f64; 2]>,
+}
+
 fn fnv1a(s: &str) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     for b in s.bytes() {
@@ -528,5 +557,62 @@ impl RiskMap {
         }
         self.contrib.insert(o.id.to_owned(), c);
         self.refresh_discs();
+    }
+
+    fn frame(&self) -> Frame {
+        Frame {
+            cfg: self.cfg.clone(),
+            t0_bits: self.t0_s.to_bits(),
+            path: self.path.clone(),
+        }
+    }
+
+    /// Removes obstacle `id`'s part from this map and returns it (see [`Layer`]); `None`
+    /// when the map does not hold `id`.
+    pub fn take_layer(&mut self, id: &str) -> Option<Layer> {
+        let c = self.contrib.remove(id)?;
+        self.subtract(&c);
+        self.refresh_discs();
+        Some(Layer {
+            id: id.to_owned(),
+            frame: Box::new(self.frame()),
+            c: Box::new(c),
+        })
+    }
+
+    /// Puts a layer taken from a map of the same frame (configuration, slice-0 time and
+    /// intended path) in place of its obstacle's part here: the same cells, bit for bit,
+    /// as [`RiskMap::update_obstacle`] with that obstacle's input on this map.
+    ///
+    /// # Errors
+    /// The layer back when its map's frame differs from this one's.
+    pub fn put_layer(&mut self, layer: Layer) -> Result<(), Layer> {
+        if layer.frame.t0_bits != self.t0_s.to_bits()
+            || layer.frame.cfg != self.cfg
+            || layer.frame.path != self.path
+        {
+            return Err(layer);
+        }
+        if let Some(old) = self.contrib.remove(&layer.id) {
+            self.subtract(&old);
+        }
+        let c = *layer.c;
+        // The same multiplications, cell by cell, as the fold in `finish_slice`.
+        for k in 0..self.n_slices.min(c.slice_start.len().saturating_sub(1)) {
+            let base = self.geo[k].off;
+            let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
+            for run in &c.runs[r] {
+                let a = base + run.idx as usize;
+                let counts = &c.counts[run.start as usize..(run.start + run.len) as usize];
+                for (q, &n) in self.q[a..a + run.len as usize].iter_mut().zip(counts) {
+                    if n > 0 {
+                        *q *= self.omp_table[usize::from(n)];
+                    }
+                }
+            }
+        }
+        self.contrib.insert(layer.id, c);
+        self.refresh_discs();
+        Ok(())
     }
 }

@@ -69,6 +69,12 @@ pub struct ServeArgs {
     #[arg(long, env = "JINK_PLAN_MAP_MAX_AGE_MS", default_value_t = crate::live::DEFAULT_PLAN_MAP_MAX_AGE_MS)]
     pub plan_map_max_age_ms: u64,
 
+    /// Share each risk-map build with a helper thread at the lowest priority (nice 19),
+    /// which uses the core kept for the runtime while it is idle: the same map, sooner.
+    /// Default: on with two or more cores.
+    #[arg(long, env = "JINK_LIVE_MAP_HELPER", action = clap::ArgAction::Set)]
+    pub live_map_helper: Option<bool>,
+
     /// How much lower the scheduling priority of plan and risk-map threads is than the
     /// server's (nice increment, 0-19; Linux): ingest keeps precedence on a busy machine.
     /// 0 runs them at the server's priority.
@@ -351,6 +357,9 @@ pub fn run(args: ServeArgs) -> ExitCode {
                     map_idle: std::time::Duration::from_secs(args.live_map_idle_s.max(1)),
                     max_maps: args.live_max_maps.max(1),
                     plan_map_max_age: std::time::Duration::from_millis(args.plan_map_max_age_ms),
+                    map_helper: args
+                        .live_map_helper
+                        .unwrap_or(crate::live::LiveConfig::default().map_helper),
                 },
                 access,
             },

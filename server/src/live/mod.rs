@@ -20,6 +20,10 @@
 //!   rebuilt, and at most [`LiveConfig::max_maps`] maps are kept (the least recently read
 //!   dropped first). A dropped map is rebuilt by the next read that needs it, bit for bit
 //!   (it is a pure function of the predictor).
+//! - **Two hands per build**: a map build shares its obstacles with one helper thread at
+//!   the lowest priority ([`helper`], [`LiveConfig::map_helper`]) and puts the helper's
+//!   parts in the one-thread order, so the map is the same bit for bit; the build never
+//!   waits for the helper.
 //! - **No half-applied batch**: the writer publishes whole batches (`seq` advances by a
 //!   batch at a time); a snapshot holds an `Arc` of the predictor as of that `seq`. The
 //!   writer feeds through `Arc::make_mut`, so a batch arriving while a snapshot holds the
@@ -56,6 +60,7 @@ use crate::store::observations::StoredBatch;
 use crate::store::{Backend, ObservationRow};
 use wire::ids::MissionId;
 
+pub mod helper;
 pub mod notify;
 pub mod plan_view;
 pub mod snapshot;
@@ -105,6 +110,10 @@ pub struct LiveConfig {
     /// applied at most this long ago (a rebuild is then under way); beyond it, the plan
     /// waits for the map of every applied batch. A request's `max_map_age_ms` overrides it.
     pub plan_map_max_age: Duration,
+    /// Map builds share their obstacles with a helper thread at the lowest priority
+    /// ([`helper`]): on a machine of two or more cores, the core kept for the runtime
+    /// builds part of a map while it is idle. Default: on with two or more cores.
+    pub map_helper: bool,
 }
 
 impl Default for LiveConfig {
@@ -115,6 +124,7 @@ impl Default for LiveConfig {
             map_idle: Duration::from_secs(10),
             max_maps: 32,
             plan_map_max_age: Duration::from_millis(DEFAULT_PLAN_MAP_MAX_AGE_MS),
+            map_helper: std::thread::available_parallelism().is_ok_and(|n| n.get() >= 2),
         }
     }
 }
@@ -446,9 +456,10 @@ impl MissionLive {
     ) -> Result<Arc<Snapshot>, ApiError> {
         let mission = self.mission.clone();
         let spare = state.live.take_spare();
+        let helper = state.live.helper.clone();
         let snap = Arc::new(
             crate::app::run_with(permit, move || {
-                Snapshot::build_reusing(&mission, seq, predictor, spare)
+                Snapshot::build_reusing(&mission, seq, predictor, spare, helper.as_ref())
             })
             .await?,
         );
@@ -494,6 +505,8 @@ pub struct LiveStates {
     /// Maps of replaced snapshots nobody reads any more, whose allocations the next builds
     /// reuse (at most [`SPARE_MAPS`]).
     spare_maps: Mutex<Vec<predictor::RiskMap>>,
+    /// Shares map builds ([`LiveConfig::map_helper`]).
+    helper: Option<helper::MapHelper>,
     missions: Mutex<HashMap<MissionId, Arc<MissionLive>>>,
     last_sweep: Mutex<Instant>,
 }
@@ -508,6 +521,11 @@ impl LiveStates {
     /// No mission live yet.
     pub fn new(cfg: LiveConfig) -> Self {
         Self {
+            helper: if cfg.map_helper {
+                helper::MapHelper::spawn()
+            } else {
+                None
+            },
             cfg,
             spare_maps: Mutex::new(Vec::new()),
             missions: Mutex::new(HashMap::new()),

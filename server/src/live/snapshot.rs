@@ -15,6 +15,7 @@ use std::sync::Arc;
 
 use predictor::{Observation, Predictor, PredictorConfig, RiskMap, RiskMapConfig, RiskMapError};
 
+use super::helper::MapHelper;
 use crate::geodesy::LocalFrame;
 use crate::mission::Mission;
 use crate::store::ObservationRow;
@@ -68,25 +69,27 @@ pub fn predictor_config() -> PredictorConfig {
 pub use planner::replan::{build_map, fresh_ids};
 
 /// [`build_map`] into `spare`'s allocation when it has the same configuration (a map
-/// of an earlier snapshot), else into a new map. The cells are the same bit for bit:
-/// re-anchoring sets every cell an obstacle touched back to exactly 1, as in a new map.
+/// of an earlier snapshot), else into a new map, sharing the obstacles with `helper` when
+/// given. The cells are the same bit for bit: re-anchoring sets every cell an obstacle
+/// touched back to exactly 1, as in a new map, and the helper's parts are put in the
+/// one-thread order ([`super::helper`]).
 fn build_map_into(
     spare: Option<RiskMap>,
-    predictor: &Predictor,
+    predictor: &Arc<Predictor>,
     cfg: &RiskMapConfig,
     ids: &[String],
     t0_s: f64,
+    helper: Option<&MapHelper>,
 ) -> Result<RiskMap, RiskMapError> {
-    match spare {
+    let mut map = match spare {
         Some(mut map) if map.config() == cfg => {
             map.reset(&[], t0_s);
-            for id in ids {
-                predictor.update_map_obstacle(&mut map, id);
-            }
-            Ok(map)
+            map
         }
-        _ => build_map(predictor, cfg, ids, t0_s),
-    }
+        _ => RiskMap::new(cfg.clone(), &[], t0_s)?,
+    };
+    super::helper::add_obstacles(&mut map, predictor, ids, t0_s, helper);
+    Ok(map)
 }
 
 /// One mission's live state as of batch `seq`.
@@ -111,17 +114,19 @@ pub struct Snapshot {
 impl Snapshot {
     /// The snapshot of `predictor` after batch `seq` (CPU work: one full map build).
     pub fn build(mission: &Mission, seq: i64, predictor: Arc<Predictor>) -> Self {
-        Self::build_reusing(mission, seq, predictor, None)
+        Self::build_reusing(mission, seq, predictor, None, None)
     }
 
     /// [`Snapshot::build`], building the map in `spare`'s allocation when its
     /// configuration fits (the same snapshot, bit for bit; saves allocating and filling
-    /// a map of several MB per batch).
+    /// a map of several MB per batch), sharing its obstacles with `helper` when given
+    /// (the same snapshot again, [`super::helper`]).
     pub fn build_reusing(
         mission: &Mission,
         seq: i64,
         predictor: Arc<Predictor>,
         spare: Option<RiskMap>,
+        helper: Option<&MapHelper>,
     ) -> Self {
         let started = std::time::Instant::now();
         let frame = mission.frame();
@@ -131,7 +136,7 @@ impl Snapshot {
             Some(t0) => {
                 let ids = fresh_ids(&predictor, t0 - STALE_AFTER_S);
                 let cfg = map_config(mission, LIVE_HORIZON_S);
-                let map = match build_map_into(spare, &predictor, &cfg, &ids, t0) {
+                let map = match build_map_into(spare, &predictor, &cfg, &ids, t0, helper) {
                     Ok(m) => Some(Arc::new(m)),
                     Err(e) => {
                         // Plans then build their own map and report the error.
@@ -241,6 +246,62 @@ mod tests {
     }
 
     #[test]
+    fn a_map_shared_with_the_helper_thread_equals_a_one_thread_build_bit_for_bit() {
+        let m = webster();
+        let frame = m.frame();
+        // Ten obstacles: the three of `batches` and seven more on circles of their own.
+        let mut rows = batches().concat();
+        for k in 3..10 {
+            for i in 0..100 {
+                let t = 1_700_000_000.0 + 0.2 * f64::from(i);
+                let a = 0.03 * f64::from(k) * (t - 1_700_000_000.0) + f64::from(k);
+                rows.push(ObservationRow {
+                    obstacle_id: k.to_string(),
+                    t_s: t,
+                    lat_deg: 38.145 + 0.0015 * a.sin() + 0.0002 * f64::from(k),
+                    lon_deg: -76.429 + 0.002 * a.cos(),
+                    alt_msl_m: 60.0,
+                    radius_m: 15.0 + 3.0 * f64::from(k),
+                });
+            }
+        }
+        crate::store::observations::sort_feeding_order(&mut rows);
+        let mut p = Predictor::new(predictor_config());
+        feed(&mut p, &frame, &rows);
+        let p = Arc::new(p);
+        let one = Snapshot::build(&m, 1, p.clone());
+        let a = one.map.expect("map");
+        assert_eq!(one.map_ids.len(), 10);
+        let helper = MapHelper::spawn().expect("a thread");
+        // Where the build and the helper meet depends on timing: every run must give the
+        // same cells whatever the split (and whether the spare allocation is reused).
+        let mut spare = None;
+        for run in 0..8 {
+            let shared = Snapshot::build_reusing(&m, 1, p.clone(), spare.take(), Some(&helper));
+            let b = shared.map.expect("map");
+            for k in 0..=60 {
+                let t = a.t0_s() + f64::from(k);
+                let (sa, sb) = (a.slice(t), b.slice(t));
+                assert!(
+                    sa.data
+                        .iter()
+                        .zip(&sb.data)
+                        .all(|(x, y)| x.to_bits() == y.to_bits()),
+                    "run {run}, slice {k}"
+                );
+            }
+            for id in &one.map_ids {
+                assert_eq!(
+                    a.obstacle_mass_m2(id, 30),
+                    b.obstacle_mass_m2(id, 30),
+                    "{id}"
+                );
+            }
+            spare = Arc::try_unwrap(b).ok();
+        }
+    }
+
+    #[test]
     fn a_map_built_in_a_spare_allocation_equals_a_new_one() {
         let m = webster();
         let frame = m.frame();
@@ -253,7 +314,7 @@ mod tests {
         let p = Arc::new(p);
         let (new, reused) = (
             Snapshot::build(&m, 100, p.clone()),
-            Snapshot::build_reusing(&m, 100, p, Some(spare)),
+            Snapshot::build_reusing(&m, 100, p, Some(spare), None),
         );
         let (a, b) = (new.map.expect("map"), reused.map.expect("map"));
         assert_ne!(a.t0_s(), old.anchor_t_s.expect("anchor"), "re-anchored");
