@@ -69,7 +69,7 @@ pub struct ServeArgs {
     #[arg(long, env = "JINK_PLAN_MAP_MAX_AGE_MS", default_value_t = crate::live::DEFAULT_PLAN_MAP_MAX_AGE_MS)]
     pub plan_map_max_age_ms: u64,
 
-    /// Share each risk-map build with a helper thread at the lowest priority (nice 19),
+    /// Share each risk-map build with a helper thread at the lowest priority (SCHED_IDLE),
     /// which uses the core kept for the runtime while it is idle: the same map, sooner.
     /// Default: on with two or more cores.
     #[arg(long, env = "JINK_LIVE_MAP_HELPER", action = clap::ArgAction::Set)]

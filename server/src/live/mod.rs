@@ -21,7 +21,7 @@
 //!   dropped first). A dropped map is rebuilt by the next read that needs it, bit for bit
 //!   (it is a pure function of the predictor).
 //! - **Two hands per build**: a map build shares its obstacles with one helper thread at
-//!   the lowest priority ([`helper`], [`LiveConfig::map_helper`]) and puts the helper's
+//!   the lowest priority (SCHED_IDLE, [`helper`], [`LiveConfig::map_helper`]) and puts the helper's
 //!   parts in the one-thread order, so the map is the same bit for bit; the build never
 //!   waits for the helper.
 //! - **No half-applied batch**: the writer publishes whole batches (`seq` advances by a
