@@ -234,6 +234,28 @@ fn fnv1a(s: &str) -> u64 {
     h
 }
 
+/// Calls `f` with each cell of `q` that contribution `c` covers and its particle count
+/// there, slice by slice and run by run.
+fn for_each_cell(
+    q: &mut [f32],
+    geo: &[SliceGeom],
+    n_slices: usize,
+    c: &Contribution,
+    mut f: impl FnMut(&mut f32, u16),
+) {
+    for k in 0..n_slices.min(c.slice_start.len().saturating_sub(1)) {
+        let base = geo[k].off;
+        let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
+        for run in &c.runs[r] {
+            let a = base + run.idx as usize;
+            let counts = &c.counts[run.start as usize..(run.start + run.len) as usize];
+            for (q, &n) in q[a..a + run.len as usize].iter_mut().zip(counts) {
+                f(q, n);
+            }
+        }
+    }
+}
+
 fn dist_point_polyline(p: [f64; 2], path: &[[f64; 2]]) -> f64 {
     if path.len() == 1 {
         return (p[0] - path[0][0]).hypot(p[1] - path[0][1]);
@@ -495,21 +517,14 @@ impl RiskMap {
     }
 
     fn subtract(&mut self, c: &Contribution) {
-        for k in 0..self.n_slices.min(c.slice_start.len().saturating_sub(1)) {
-            let base = self.geo[k].off;
-            let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
-            for run in &c.runs[r] {
-                let a = base + run.idx as usize;
-                let counts = &c.counts[run.start as usize..(run.start + run.len) as usize];
-                for (q, &n) in self.q[a..a + run.len as usize].iter_mut().zip(counts) {
-                    *q *= self.inv_table[usize::from(n)];
-                    // Snap the rounding drift of multiply-then-divide back to exactly 1.
-                    if *q > 1.0 - 1e-6 {
-                        *q = 1.0;
-                    }
-                }
+        let inv = &self.inv_table;
+        for_each_cell(&mut self.q, &self.geo, self.n_slices, c, |q, n| {
+            *q *= inv[usize::from(n)];
+            // Snap the rounding drift of multiply-then-divide back to exactly 1.
+            if *q > 1.0 - 1e-6 {
+                *q = 1.0;
             }
-        }
+        });
     }
 
     fn refresh_discs(&mut self) {
@@ -598,19 +613,12 @@ impl RiskMap {
         }
         let c = *layer.c;
         // The same multiplications, cell by cell, as the fold in `finish_slice`.
-        for k in 0..self.n_slices.min(c.slice_start.len().saturating_sub(1)) {
-            let base = self.geo[k].off;
-            let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
-            for run in &c.runs[r] {
-                let a = base + run.idx as usize;
-                let counts = &c.counts[run.start as usize..(run.start + run.len) as usize];
-                for (q, &n) in self.q[a..a + run.len as usize].iter_mut().zip(counts) {
-                    if n > 0 {
-                        *q *= self.omp_table[usize::from(n)];
-                    }
-                }
+        let omp = &self.omp_table;
+        for_each_cell(&mut self.q, &self.geo, self.n_slices, &c, |q, n| {
+            if n > 0 {
+                *q *= omp[usize::from(n)];
             }
-        }
+        });
         self.contrib.insert(layer.id, c);
         self.refresh_discs();
         Ok(())

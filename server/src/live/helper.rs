@@ -164,6 +164,16 @@ pub fn add_obstacles(
     t0_s: f64,
     helper: Option<&MapHelper>,
 ) -> usize {
+    let sequential = |map: &mut RiskMap| {
+        for id in ids {
+            predictor.update_map_obstacle(map, id);
+        }
+    };
+    // With fewer than two obstacles there is nothing to share.
+    let Some(helper) = helper.filter(|_| ids.len() >= 2) else {
+        sequential(map);
+        return 0;
+    };
     let job = Arc::new(Job {
         predictor: predictor.clone(),
         cfg: map.config().clone(),
@@ -176,13 +186,9 @@ pub fn add_obstacles(
         slots: ids.iter().map(|_| Mutex::new(None)).collect(),
         done: AtomicBool::new(false),
     });
-    // With fewer than two obstacles there is nothing to share; if the helper is gone, the
-    // build takes every obstacle itself.
-    let shared = ids.len() >= 2 && helper.is_some_and(|h| h.tx.send(job.clone()).is_ok());
-    if !shared {
-        for id in ids {
-            predictor.update_map_obstacle(map, id);
-        }
+    if helper.tx.send(job.clone()).is_err() {
+        // The helper is gone: the build takes every obstacle itself.
+        sequential(map);
         return 0;
     }
     while let Some(i) = job.take_front() {
@@ -200,6 +206,26 @@ pub fn add_obstacles(
         }
     }
     helped
+}
+
+/// Asserts that two maps hold the same cells, bit for bit, in every slice (`what` names
+/// the case in the failure).
+#[cfg(test)]
+pub(crate) fn assert_same_cells(a: &RiskMap, b: &RiskMap, what: &str) {
+    assert_eq!(a.slices(), b.slices(), "{what}: slices");
+    for k in 0..a.slices() {
+        let t = a.t0_s() + k as f64;
+        let (sa, sb) = (a.slice(t), b.slice(t));
+        assert!(
+            sa.data.len() == sb.data.len()
+                && sa
+                    .data
+                    .iter()
+                    .zip(&sb.data)
+                    .all(|(x, y)| x.to_bits() == y.to_bits()),
+            "{what}, slice {k}"
+        );
+    }
 }
 
 #[cfg(test)]
@@ -251,17 +277,7 @@ mod tests {
         for run in 0..200 {
             let mut map = RiskMap::new(cfg.clone(), &[], t0).unwrap();
             helped += add_obstacles(&mut map, &p, &ids, t0, Some(&helper));
-            for k in 0..=60 {
-                let t = t0 + f64::from(k);
-                let (a, b) = (one.slice(t), map.slice(t));
-                assert!(
-                    a.data
-                        .iter()
-                        .zip(&b.data)
-                        .all(|(x, y)| x.to_bits() == y.to_bits()),
-                    "run {run}, slice {k}"
-                );
-            }
+            assert_same_cells(&one, &map, &format!("run {run}"));
             if helped >= 5 {
                 break;
             }

@@ -279,17 +279,7 @@ mod tests {
         for run in 0..8 {
             let shared = Snapshot::build_reusing(&m, 1, p.clone(), spare.take(), Some(&helper));
             let b = shared.map.expect("map");
-            for k in 0..=60 {
-                let t = a.t0_s() + f64::from(k);
-                let (sa, sb) = (a.slice(t), b.slice(t));
-                assert!(
-                    sa.data
-                        .iter()
-                        .zip(&sb.data)
-                        .all(|(x, y)| x.to_bits() == y.to_bits()),
-                    "run {run}, slice {k}"
-                );
-            }
+            super::super::helper::assert_same_cells(&a, &b, &format!("run {run}"));
             for id in &one.map_ids {
                 assert_eq!(
                     a.obstacle_mass_m2(id, 30),
