@@ -1,39 +1,70 @@
-//! Group commit of observation batches on SQLite.
+//! Group commit of observation batches and aircraft telemetry on SQLite.
 //!
-//! SQLite has one writer, so concurrent batches queue for the single write connection
-//! anyway; each paid its own `BEGIN`, mission-counter bump, insert and `COMMIT`. Here one
-//! task owns the queue: it takes every batch waiting (up to [`MAX_GROUP`]) and stores them
-//! in one transaction ([`Store::commit_batches`]), one counter bump and one multi-row
-//! insert per mission, then answers each request. A lone batch goes at once (no waiting
-//! for company), so a quiet mission's latency is a single transaction as before.
+//! SQLite has one writer, so concurrent writes queue for the single write connection
+//! anyway; each paid its own statements, `BEGIN` and `COMMIT`, and every statement is a
+//! round trip to the connection's thread (under load, a wait for a core each way). Here
+//! one task owns the queue: it takes every write waiting (up to [`MAX_GROUP`]) and stores
+//! them in one transaction ([`Store::commit_group`]): one counter bump and one multi-row
+//! insert per mission for the observation batches, one multi-row insert for all the
+//! telemetry posts, then answers each request. A lone write goes at once (no waiting for
+//! company), so a quiet mission's latency is a single transaction as before. The task runs
+//! on the database writer's runtime ([`super::writer`]).
 //!
-//! Contracts kept from one transaction per batch:
-//! - each batch is all or none, and is acknowledged only after its commit;
+//! Contracts kept from one transaction per request:
+//! - each batch or telemetry post is all or none, and is acknowledged only after its
+//!   commit;
 //! - batches of a mission take consecutive sequence numbers in arrival order, and a row
-//!   already stored (by an earlier batch, also one earlier in the same group) is a
+//!   already stored (by an earlier request, also one earlier in the same group) is a
 //!   duplicate: the first one wins;
-//! - if a group's transaction fails, its batches are retried one transaction each, so a
-//!   failure is reported to the batch that caused it only.
+//! - a request for a mission that does not exist gets `None` (404) and does not disturb
+//!   the others;
+//! - if a group's transaction fails, its requests are retried one transaction each, so a
+//!   failure is reported to the request that caused it only.
 
+use std::collections::{HashMap, HashSet};
+
+use sqlx::{AssertSqlSafe, Row};
 use tokio::sync::{mpsc, oneshot};
 
 use super::observations::{NewBatch, StoredBatch};
-use super::{ObservationRow, Store};
+use super::writer::WriterThread;
+use super::{InsertCounts, ObservationRow, Store, TelemetryRow, values_sql};
+use crate::time::to_us;
 
-/// Most batches stored in one transaction.
+/// Most requests stored in one transaction.
 pub const MAX_GROUP: usize = 64;
 
-type Reply = oneshot::Sender<Result<Option<StoredBatch>, sqlx::Error>>;
+/// Telemetry rows per insert statement (9 parameters each; see the observations' chunk for
+/// why statements stay small).
+const TELEMETRY_CHUNK_ROWS: usize = 32;
 
-struct Job {
-    mission_id: String,
-    rows: Vec<ObservationRow>,
-    received_at_s: f64,
-    writer: String,
-    reply: Reply,
+type Reply<T> = oneshot::Sender<Result<T, sqlx::Error>>;
+
+/// One telemetry post to store (see [`Store::commit_group`]).
+#[derive(Debug, Clone, Copy)]
+pub struct NewTelemetry<'a> {
+    /// Its mission.
+    pub mission_id: &'a str,
+    /// Its samples, in any order.
+    pub rows: &'a [TelemetryRow],
+    /// When it was received, Unix seconds.
+    pub received_at_s: f64,
+    /// The name of the token that sent it (`local` without one).
+    pub writer: &'a str,
 }
 
-impl Job {
+struct Request<R, T> {
+    mission_id: String,
+    rows: Vec<R>,
+    received_at_s: f64,
+    writer: String,
+    reply: Reply<T>,
+}
+
+type BatchJob = Request<ObservationRow, Option<StoredBatch>>;
+type TelemetryJob = Request<TelemetryRow, Option<InsertCounts>>;
+
+impl BatchJob {
     fn batch(&self) -> NewBatch<'_> {
         NewBatch {
             mission_id: &self.mission_id,
@@ -44,6 +75,22 @@ impl Job {
     }
 }
 
+impl TelemetryJob {
+    fn post(&self) -> NewTelemetry<'_> {
+        NewTelemetry {
+            mission_id: &self.mission_id,
+            rows: &self.rows,
+            received_at_s: self.received_at_s,
+            writer: &self.writer,
+        }
+    }
+}
+
+enum Job {
+    Batch(BatchJob),
+    Telemetry(TelemetryJob),
+}
+
 /// The queue of the group-commit task.
 #[derive(Debug, Clone)]
 pub struct GroupCommit {
@@ -51,15 +98,22 @@ pub struct GroupCommit {
 }
 
 impl GroupCommit {
-    /// Starts the task writing through `store` (which must not itself group).
-    pub fn spawn(store: Store) -> Self {
+    /// Starts the task writing through `store` (which must not itself group), on the
+    /// database writer's runtime ([`super::writer`]).
+    pub fn spawn(store: Store, on: &WriterThread) -> Self {
         let (tx, rx) = mpsc::channel(4 * MAX_GROUP);
-        tokio::spawn(run(store, rx));
+        on.spawn_task(run(store, rx));
         Self { tx }
     }
 
-    /// Stores one batch (see [`Store::insert_observations`]); `None` when the task has
-    /// stopped (the caller then writes directly).
+    async fn send<T>(&self, job: impl FnOnce(Reply<T>) -> Job) -> Option<Result<T, sqlx::Error>> {
+        let (reply, answer) = oneshot::channel();
+        self.tx.send(job(reply)).await.ok()?;
+        answer.await.ok()
+    }
+
+    /// Stores one observation batch (see [`Store::insert_observations`]); `None` when the
+    /// task has stopped (the caller then writes directly).
     pub async fn submit(
         &self,
         mission_id: &str,
@@ -67,53 +121,206 @@ impl GroupCommit {
         received_at_s: f64,
         writer: &str,
     ) -> Option<Result<Option<StoredBatch>, sqlx::Error>> {
-        let (reply, answer) = oneshot::channel();
-        let job = Job {
-            mission_id: mission_id.to_string(),
-            rows: rows.to_vec(),
-            received_at_s,
-            writer: writer.to_string(),
-            reply,
-        };
-        self.tx.send(job).await.ok()?;
-        answer.await.ok()
+        self.send(|reply| {
+            Job::Batch(Request {
+                mission_id: mission_id.to_string(),
+                rows: rows.to_vec(),
+                received_at_s,
+                writer: writer.to_string(),
+                reply,
+            })
+        })
+        .await
+    }
+
+    /// Stores one telemetry post (see [`Store::insert_telemetry`]); `None` when the task
+    /// has stopped (the caller then writes directly).
+    pub async fn submit_telemetry(
+        &self,
+        mission_id: &str,
+        rows: &[TelemetryRow],
+        received_at_s: f64,
+        writer: &str,
+    ) -> Option<Result<Option<InsertCounts>, sqlx::Error>> {
+        self.send(|reply| {
+            Job::Telemetry(Request {
+                mission_id: mission_id.to_string(),
+                rows: rows.to_vec(),
+                received_at_s,
+                writer: writer.to_string(),
+                reply,
+            })
+        })
+        .await
     }
 }
 
 async fn run(store: Store, mut rx: mpsc::Receiver<Job>) {
-    let mut jobs: Vec<Job> = Vec::with_capacity(MAX_GROUP);
+    let mut batches: Vec<BatchJob> = Vec::with_capacity(MAX_GROUP);
+    let mut posts: Vec<TelemetryJob> = Vec::with_capacity(MAX_GROUP);
     while let Some(first) = rx.recv().await {
-        jobs.push(first);
-        while jobs.len() < MAX_GROUP {
+        let mut take = |job| match job {
+            Job::Batch(j) => batches.push(j),
+            Job::Telemetry(j) => posts.push(j),
+        };
+        take(first);
+        for _ in 1..MAX_GROUP {
             match rx.try_recv() {
-                Ok(j) => jobs.push(j),
+                Ok(j) => take(j),
                 Err(_) => break,
             }
         }
-        let batches: Vec<NewBatch<'_>> = jobs.iter().map(Job::batch).collect();
-        let result = store.commit_batches(&batches).await;
-        drop(batches);
+        let new_batches: Vec<NewBatch<'_>> = batches.iter().map(BatchJob::batch).collect();
+        let new_posts: Vec<NewTelemetry<'_>> = posts.iter().map(TelemetryJob::post).collect();
+        let result = store.commit_group(&new_batches, &new_posts).await;
+        drop((new_batches, new_posts));
         match result {
-            Ok(out) => {
-                for (j, o) in jobs.drain(..).zip(out) {
+            Ok((stored, counted)) => {
+                for (j, o) in batches.drain(..).zip(stored) {
+                    let _ = j.reply.send(Ok(o));
+                }
+                for (j, o) in posts.drain(..).zip(counted) {
                     let _ = j.reply.send(Ok(o));
                 }
             }
-            Err(e) if jobs.len() == 1 => {
-                let _ = jobs.pop().map(|j| j.reply.send(Err(e)));
+            Err(e) if batches.len() + posts.len() == 1 => {
+                if let Some(j) = batches.pop() {
+                    let _ = j.reply.send(Err(e));
+                } else if let Some(j) = posts.pop() {
+                    let _ = j.reply.send(Err(e));
+                }
             }
             Err(e) => {
-                tracing::warn!(error = %e, batches = jobs.len(), "group commit failed; storing its batches one by one");
-                for j in jobs.drain(..) {
+                tracing::warn!(error = %e, batches = batches.len(), posts = posts.len(), "group commit failed; storing its requests one by one");
+                for j in batches.drain(..) {
                     let r = store
-                        .commit_batches(&[j.batch()])
+                        .commit_group(&[j.batch()], &[])
                         .await
-                        .map(|mut v| v.pop().flatten());
+                        .map(|(mut v, _)| v.pop().flatten());
+                    let _ = j.reply.send(r);
+                }
+                for j in posts.drain(..) {
+                    let r = store
+                        .commit_group(&[], &[j.post()])
+                        .await
+                        .map(|(_, mut v)| v.pop().flatten());
                     let _ = j.reply.send(r);
                 }
             }
         }
     }
+}
+
+/// Per-request answers of [`Store::commit_group`]: the batches', then the posts'.
+pub type GroupAnswers = (Vec<Option<StoredBatch>>, Vec<Option<InsertCounts>>);
+
+impl Store {
+    /// Stores observation `batches` (as [`Store::commit_batches`]) and telemetry `posts`
+    /// in one transaction, all or none. A post's samples are new unless their time is
+    /// already stored for the mission, by an earlier request or a post earlier in
+    /// `posts` (the first one wins). Answers per request: `None` when its mission does not
+    /// exist.
+    ///
+    /// # Errors
+    /// Database failures (nothing is stored).
+    pub async fn commit_group(
+        &self,
+        batches: &[NewBatch<'_>],
+        posts: &[NewTelemetry<'_>],
+    ) -> Result<GroupAnswers, sqlx::Error> {
+        let mut tx = self.write.begin().await?;
+        let stored = self.batches_in(&mut tx, batches).await?;
+        let counted = telemetry_in(&mut tx, posts).await?;
+        tx.commit().await?;
+        Ok((stored, counted))
+    }
+}
+
+/// The telemetry part of [`Store::commit_group`], inside `tx`.
+async fn telemetry_in(
+    tx: &mut sqlx::Transaction<'static, sqlx::Any>,
+    posts: &[NewTelemetry<'_>],
+) -> Result<Vec<Option<InsertCounts>>, sqlx::Error> {
+    if posts.is_empty() {
+        return Ok(Vec::new());
+    }
+    // Posts for a mission that does not exist answer `None` instead of failing the
+    // group's insert on its foreign key.
+    let mut missions: Vec<&str> = Vec::new();
+    for p in posts {
+        if !missions.contains(&p.mission_id) {
+            missions.push(p.mission_id);
+        }
+    }
+    let marks = (1..=missions.len())
+        .map(|i| format!("${i}"))
+        .collect::<Vec<_>>()
+        .join(",");
+    let mut q = sqlx::query(AssertSqlSafe(format!(
+        "SELECT id FROM missions WHERE id IN ({marks})"
+    )));
+    for m in &missions {
+        q = q.bind(m.to_string());
+    }
+    let existing: HashSet<String> = q
+        .fetch_all(&mut **tx)
+        .await?
+        .iter()
+        .map(|r| r.try_get(0))
+        .collect::<Result<_, _>>()?;
+    let rows: Vec<(usize, &TelemetryRow)> = posts
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| existing.contains(p.mission_id))
+        .flat_map(|(i, p)| p.rows.iter().map(move |r| (i, r)))
+        .collect();
+    // A stored (mission, time) belongs to the first post that carried it.
+    let mut first_post: HashMap<(&str, i64), usize> = HashMap::new();
+    for &(i, r) in &rows {
+        first_post
+            .entry((posts[i].mission_id, to_us(r.t_s)))
+            .or_insert(i);
+    }
+    let mut accepted = vec![0_u64; posts.len()];
+    for chunk in rows.chunks(TELEMETRY_CHUNK_ROWS) {
+        let sql = values_sql(
+            "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us, written_by) VALUES ",
+            9,
+            chunk.len(),
+            " ON CONFLICT DO NOTHING RETURNING mission_id, t_us",
+        );
+        let mut q = sqlx::query(AssertSqlSafe(sql));
+        for &(i, r) in chunk {
+            let p = &posts[i];
+            q = q
+                .bind(p.mission_id.to_string())
+                .bind(to_us(r.t_s))
+                .bind(r.lat_deg)
+                .bind(r.lon_deg)
+                .bind(r.alt_msl_m)
+                .bind(r.heading_deg)
+                .bind(r.speed_mps)
+                .bind(to_us(p.received_at_s))
+                .bind(p.writer.to_string());
+        }
+        for r in q.fetch_all(&mut **tx).await? {
+            let (m, t): (String, i64) = (r.try_get(0)?, r.try_get(1)?);
+            let k = first_post
+                .get(&(m.as_str(), t))
+                .ok_or_else(|| sqlx::Error::Protocol(format!("unexpected sample {m} {t}")))?;
+            accepted[*k] += 1;
+        }
+    }
+    Ok(posts
+        .iter()
+        .zip(accepted)
+        .map(|(p, accepted)| {
+            existing.contains(p.mission_id).then(|| InsertCounts {
+                accepted,
+                duplicate: p.rows.len() as u64 - accepted,
+            })
+        })
+        .collect())
 }
 
 #[cfg(test)]
@@ -184,6 +391,119 @@ mod tests {
             store.observation_seq("webster").await.expect("seq"),
             Some(2)
         );
+    }
+
+    fn sample(t_s: f64, lat_deg: f64) -> TelemetryRow {
+        TelemetryRow {
+            t_s,
+            lat_deg,
+            lon_deg: -76.43,
+            alt_msl_m: 60.0,
+            heading_deg: 90.0,
+            speed_mps: Some(18.0),
+        }
+    }
+
+    #[tokio::test]
+    async fn telemetry_posts_of_one_group_count_their_own_new_samples_next_to_batches() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        let id = wire::ids::MissionId::from("webster");
+        // t = 1 stored before the group.
+        store
+            .insert_telemetry(&id, &[sample(1.0, 38.0)], 5.0)
+            .await
+            .expect("insert")
+            .expect("mission");
+        let a = [sample(1.0, 38.1), sample(2.0, 38.1), sample(3.0, 38.1)];
+        let b = [sample(3.0, 38.2), sample(4.0, 38.2), sample(4.0, 38.3)];
+        let c = [sample(5.0, 38.4)];
+        let post = |mission_id, rows| NewTelemetry {
+            mission_id,
+            rows,
+            received_at_s: 10.0,
+            writer: "gcs",
+        };
+        let obs = [row("0", 1.0, 38.1)];
+        let batch = NewBatch {
+            mission_id: "webster",
+            rows: &obs,
+            received_at_s: 10.0,
+            writer: "gcs",
+        };
+        let (stored, counted) = store
+            .commit_group(
+                &[batch],
+                &[
+                    post("webster", &a),
+                    post("nope", &c),
+                    post("webster", &b),
+                    post("webster", &[]),
+                ],
+            )
+            .await
+            .expect("commit");
+        assert_eq!(stored[0].as_ref().expect("batch").counts.accepted, 1);
+        let counts = |accepted, duplicate| {
+            Some(InsertCounts {
+                accepted,
+                duplicate,
+            })
+        };
+        assert_eq!(
+            counted,
+            [counts(2, 1), None, counts(1, 2), counts(0, 0)],
+            "a: t=1 was stored before; b: t=3 is a's, its second t=4 its own duplicate"
+        );
+        let listed = store.list_telemetry_written(&id, None).await.expect("list");
+        let got: Vec<(f64, f64, &str)> = listed
+            .iter()
+            .map(|(r, w)| (r.t_s, r.lat_deg, w.as_str()))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                (1.0, 38.0, "local"),
+                (2.0, 38.1, "gcs"),
+                (3.0, 38.1, "gcs"),
+                (4.0, 38.2, "gcs")
+            ],
+            "the first copy of each time wins"
+        );
+    }
+
+    #[tokio::test]
+    async fn concurrent_telemetry_posts_through_the_queue_lose_and_double_nothing() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        let id = wire::ids::MissionId::from("webster");
+        let tasks: Vec<_> = (0..40_u32)
+            .map(|i| {
+                let (store, id) = (store.clone(), id.clone());
+                tokio::spawn(async move {
+                    // Posts i and i + 20 carry the same two times.
+                    let t = f64::from(i % 20);
+                    let rows = [sample(t, 38.1), sample(t + 0.5, 38.1)];
+                    let missing = wire::ids::MissionId::from("nope");
+                    let none = store.insert_telemetry(&missing, &rows, 11.0).await;
+                    assert!(matches!(none, Ok(None)), "{none:?}");
+                    store.insert_telemetry(&id, &rows, 11.0).await
+                })
+            })
+            .collect();
+        let (mut accepted, mut duplicate) = (0, 0);
+        for t in tasks {
+            let c = t
+                .await
+                .expect("task")
+                .expect("insert")
+                .expect("mission exists");
+            accepted += c.accepted;
+            duplicate += c.duplicate;
+        }
+        assert_eq!((accepted, duplicate), (40, 40));
+        let rows = store.list_telemetry(&id, None).await.expect("rows");
+        assert_eq!(rows.len(), 40);
     }
 
     #[tokio::test]

@@ -21,6 +21,7 @@ pub mod group_commit;
 pub mod observations;
 pub mod plans;
 pub mod tokens;
+pub mod writer;
 pub mod writers;
 
 /// A runtime-checked query on the `Any` driver.
@@ -56,8 +57,10 @@ pub struct Store {
     backend: Backend,
     read: AnyPool,
     write: AnyPool,
-    /// SQLite: the group-commit task observation batches go through.
+    /// SQLite: the group-commit task observation batches and telemetry go through.
     group: Option<group_commit::GroupCommit>,
+    /// SQLite: the runtime the frequent writes run on ([`writer`]).
+    writer: Option<writer::WriterThread>,
 }
 
 /// Errors opening a store.
@@ -144,11 +147,14 @@ impl Store {
             read,
             write,
             group: None,
+            writer: None,
         };
         store.migrate().await?;
         if backend == Backend::Sqlite {
             tokio::spawn(checkpoint_loop(store.read.clone()));
-            store.group = Some(group_commit::GroupCommit::spawn(store.clone()));
+            let writer = writer::WriterThread::spawn().map_err(|e| OpenError::Connect(e.into()))?;
+            store.group = Some(group_commit::GroupCommit::spawn(store.clone(), &writer));
+            store.writer = Some(writer);
         }
         Ok(store)
     }
@@ -375,10 +381,30 @@ impl Store {
         rows: &[TelemetryRow],
         received_at_s: f64,
     ) -> Result<Option<InsertCounts>, sqlx::Error> {
-        missing_mission(
-            self.insert_telemetry_inner(mission_id, rows, received_at_s)
-                .await,
-        )
+        let writer = crate::auth::writer();
+        if let Some(g) = &self.group
+            && let Some(r) = g
+                .submit_telemetry(&mission_id.0, rows, received_at_s, &writer)
+                .await
+        {
+            return r;
+        }
+        let r = match &self.writer {
+            Some(w) => {
+                let (store, mission_id, rows) = (self.clone(), mission_id.clone(), rows.to_vec());
+                w.run(async move {
+                    store
+                        .insert_telemetry_inner(&mission_id, &rows, received_at_s, writer)
+                        .await
+                })
+                .await
+            }
+            None => {
+                self.insert_telemetry_inner(mission_id, rows, received_at_s, writer)
+                    .await
+            }
+        };
+        missing_mission(r)
     }
 
     async fn insert_telemetry_inner(
@@ -386,12 +412,12 @@ impl Store {
         mission_id: &MissionId,
         rows: &[TelemetryRow],
         received_at_s: f64,
+        writer: String,
     ) -> Result<InsertCounts, sqlx::Error> {
         if rows.is_empty() {
             return self.empty_batch(mission_id).await;
         }
         let received_us = to_us(received_at_s);
-        let writer = crate::auth::writer();
         self.insert_batch(
             "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us, written_by) VALUES ",
             9,

@@ -102,6 +102,18 @@ impl Store {
         &self,
         batches: &[NewBatch<'_>],
     ) -> Result<Vec<Option<StoredBatch>>, sqlx::Error> {
+        let mut tx = self.write.begin().await?;
+        let out = self.batches_in(&mut tx, batches).await?;
+        tx.commit().await?;
+        Ok(out)
+    }
+
+    /// [`Store::commit_batches`]'s work inside the transaction `tx` (not committed here).
+    pub(super) async fn batches_in(
+        &self,
+        tx: &mut sqlx::Transaction<'static, sqlx::Any>,
+        batches: &[NewBatch<'_>],
+    ) -> Result<Vec<Option<StoredBatch>>, sqlx::Error> {
         let mut out: Vec<Option<StoredBatch>> = vec![None; batches.len()];
         let mut missions: Vec<&str> = Vec::new();
         for b in batches {
@@ -109,7 +121,6 @@ impl Store {
                 missions.push(b.mission_id);
             }
         }
-        let mut tx = self.write.begin().await?;
         for mission_id in missions {
             let idx: Vec<usize> = (0..batches.len())
                 .filter(|&i| batches[i].mission_id == mission_id)
@@ -119,7 +130,7 @@ impl Store {
             )
             .bind(mission_id.to_string())
             .bind(idx.len() as i64)
-            .fetch_optional(&mut *tx)
+            .fetch_optional(&mut **tx)
             .await?
             else {
                 continue;
@@ -160,7 +171,7 @@ impl Store {
                         .bind(seq)
                         .bind(writer.to_string());
                 }
-                for r in q.fetch_all(&mut *tx).await? {
+                for r in q.fetch_all(&mut **tx).await? {
                     let seq: i64 = r.try_get(6)?;
                     let k = usize::try_from(seq - first)
                         .ok()
@@ -174,7 +185,7 @@ impl Store {
                     sqlx::query("SELECT 1 FROM (SELECT pg_notify($1, $2)) AS n")
                         .bind(OBSERVATION_CHANNEL)
                         .bind(format!("{seq} {mission_id}"))
-                        .execute(&mut *tx)
+                        .execute(&mut **tx)
                         .await?;
                 }
                 sort_feeding_order(&mut st);
@@ -189,7 +200,6 @@ impl Store {
                 });
             }
         }
-        tx.commit().await?;
         Ok(out)
     }
 

@@ -58,6 +58,17 @@ impl Store {
     /// Stores a plan at `row.revision`, which must be the next free revision.
     #[tracing::instrument(skip(self, row), fields(mission = %row.mission_id, revision = row.revision))]
     pub async fn insert_plan(&self, row: &PlanRow) -> Result<(), InsertPlanError> {
+        match &self.writer {
+            Some(w) => {
+                let (store, row) = (self.clone(), row.clone());
+                w.run(async move { store.insert_plan_here(&row).await })
+                    .await
+            }
+            None => self.insert_plan_here(row).await,
+        }
+    }
+
+    async fn insert_plan_here(&self, row: &PlanRow) -> Result<(), InsertPlanError> {
         let r = sqlx::query(
             "INSERT INTO plans (id, mission_id, revision, created_at_us, seed, inputs, body, written_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
         )
