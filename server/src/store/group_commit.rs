@@ -230,7 +230,13 @@ impl Store {
     ) -> Result<GroupAnswers, sqlx::Error> {
         let mut tx = self.write.begin().await?;
         let stored = self.batches_in(&mut tx, batches).await?;
-        let counted = telemetry_in(&mut tx, posts).await?;
+        // Whether each batch's mission exists is known now: no need to ask again.
+        let known: HashMap<&str, bool> = batches
+            .iter()
+            .zip(&stored)
+            .map(|(b, s)| (b.mission_id, s.is_some()))
+            .collect();
+        let counted = telemetry_in(&mut tx, posts, &known).await?;
         tx.commit().await?;
         Ok((stored, counted))
     }
@@ -240,34 +246,41 @@ impl Store {
 async fn telemetry_in(
     tx: &mut sqlx::Transaction<'static, sqlx::Any>,
     posts: &[NewTelemetry<'_>],
+    known: &HashMap<&str, bool>,
 ) -> Result<Vec<Option<InsertCounts>>, sqlx::Error> {
     if posts.is_empty() {
         return Ok(Vec::new());
     }
     // Posts for a mission that does not exist answer `None` instead of failing the
-    // group's insert on its foreign key.
+    // group's insert on its foreign key. Missions not `known` are looked up.
+    let mut existing: HashSet<&str> = known
+        .iter()
+        .filter_map(|(m, there)| there.then_some(*m))
+        .collect();
     let mut missions: Vec<&str> = Vec::new();
     for p in posts {
-        if !missions.contains(&p.mission_id) {
+        if !known.contains_key(p.mission_id) && !missions.contains(&p.mission_id) {
             missions.push(p.mission_id);
         }
     }
-    let marks = (1..=missions.len())
-        .map(|i| format!("${i}"))
-        .collect::<Vec<_>>()
-        .join(",");
-    let mut q = sqlx::query(AssertSqlSafe(format!(
-        "SELECT id FROM missions WHERE id IN ({marks})"
-    )));
-    for m in &missions {
-        q = q.bind(m.to_string());
+    if !missions.is_empty() {
+        let marks = (1..=missions.len())
+            .map(|i| format!("${i}"))
+            .collect::<Vec<_>>()
+            .join(",");
+        let mut q = sqlx::query(AssertSqlSafe(format!(
+            "SELECT id FROM missions WHERE id IN ({marks})"
+        )));
+        for m in &missions {
+            q = q.bind(m.to_string());
+        }
+        for r in q.fetch_all(&mut **tx).await? {
+            let id: String = r.try_get(0)?;
+            if let Some(m) = missions.iter().find(|m| **m == id) {
+                existing.insert(m);
+            }
+        }
     }
-    let existing: HashSet<String> = q
-        .fetch_all(&mut **tx)
-        .await?
-        .iter()
-        .map(|r| r.try_get(0))
-        .collect::<Result<_, _>>()?;
     let rows: Vec<(usize, &TelemetryRow)> = posts
         .iter()
         .enumerate()
@@ -504,6 +517,84 @@ mod tests {
         assert_eq!((accepted, duplicate), (40, 40));
         let rows = store.list_telemetry(&id, None).await.expect("rows");
         assert_eq!(rows.len(), 40);
+    }
+
+    #[tokio::test]
+    async fn batches_of_several_missions_in_one_group_number_per_mission_in_order() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        let text = include_str!("../../../tests/fixtures/interop/mission_2021_webster_field.json");
+        let other: Mission = wire::domain::read_mission_text(text, "other").expect("fixture");
+        store.insert_missions(&[other], 0.0).await.expect("mission");
+        let (w1, o1, w2, o2) = (
+            [row("0", 1.0, 38.1)],
+            [row("0", 1.0, 38.2), row("1", 1.0, 38.2)],
+            [row("0", 2.0, 38.3), row("0", 1.0, 38.3)],
+            [row("1", 1.0, 38.4)],
+        );
+        let batch = |mission_id, rows| NewBatch {
+            mission_id,
+            rows,
+            received_at_s: 10.0,
+            writer: "local",
+        };
+        let sample_rows = [sample(1.0, 38.0)];
+        let post = |mission_id| NewTelemetry {
+            mission_id,
+            rows: &sample_rows,
+            received_at_s: 10.0,
+            writer: "local",
+        };
+        let (out, counted) = store
+            .commit_group(
+                &[
+                    batch("webster", &w1),
+                    batch("other", &o1),
+                    batch("nope", &w1),
+                    batch("webster", &w2),
+                    batch("other", &o2),
+                ],
+                &[post("nope"), post("other"), post("gone")],
+            )
+            .await
+            .expect("commit");
+        let got: Vec<Option<(i64, u64, u64)>> = out
+            .iter()
+            .map(|b| {
+                b.as_ref()
+                    .map(|b| (b.seq, b.counts.accepted, b.counts.duplicate))
+            })
+            .collect();
+        assert_eq!(
+            got,
+            [
+                Some((1, 1, 0)),
+                Some((1, 2, 0)),
+                None,
+                Some((2, 1, 1)),
+                Some((2, 0, 1))
+            ]
+        );
+        assert_eq!(out[3].as_ref().expect("w2").stored, [row("0", 2.0, 38.3)]);
+        assert_eq!(
+            counted,
+            [
+                None,
+                Some(InsertCounts {
+                    accepted: 1,
+                    duplicate: 0
+                }),
+                None
+            ]
+        );
+        for (m, seq) in [("webster", 2), ("other", 2)] {
+            assert_eq!(store.observation_seq(m).await.expect("seq"), Some(seq));
+        }
+        let rows = store
+            .list_observations_through("other", 0, 2)
+            .await
+            .expect("rows");
+        assert_eq!(rows, [(1, row("0", 1.0, 38.2)), (1, row("1", 1.0, 38.2))]);
     }
 
     #[tokio::test]

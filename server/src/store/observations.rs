@@ -12,6 +12,8 @@
 //! [`Store::list_observations_through`] returns them in: by sequence number, then time,
 //! then obstacle id (byte order, sorted here so that no database collation matters).
 
+use std::collections::HashMap;
+
 use sqlx::{AssertSqlSafe, Row};
 
 use super::{Backend, InsertCounts, ObservationRow, Store, observation_row, values_sql};
@@ -115,90 +117,112 @@ impl Store {
         batches: &[NewBatch<'_>],
     ) -> Result<Vec<Option<StoredBatch>>, sqlx::Error> {
         let mut out: Vec<Option<StoredBatch>> = vec![None; batches.len()];
-        let mut missions: Vec<&str> = Vec::new();
+        // Missions in order of first appearance, with their number of batches.
+        let mut missions: Vec<(&str, i64)> = Vec::new();
         for b in batches {
-            if !missions.contains(&b.mission_id) {
-                missions.push(b.mission_id);
+            match missions.iter_mut().find(|(m, _)| *m == b.mission_id) {
+                Some((_, n)) => *n += 1,
+                None => missions.push((b.mission_id, 1)),
             }
         }
-        for mission_id in missions {
-            let idx: Vec<usize> = (0..batches.len())
-                .filter(|&i| batches[i].mission_id == mission_id)
-                .collect();
-            let Some(seq_row) = sqlx::query(
-                "UPDATE missions SET obs_seq = obs_seq + $2 WHERE id = $1 RETURNING obs_seq",
-            )
-            .bind(mission_id.to_string())
-            .bind(idx.len() as i64)
-            .fetch_optional(&mut **tx)
-            .await?
-            else {
-                continue;
-            };
-            let last: i64 = seq_row.try_get(0)?;
-            let first = last - idx.len() as i64 + 1;
-            let rows: Vec<(i64, i64, &str, &ObservationRow)> = idx
-                .iter()
-                .zip(first..)
-                .flat_map(|(&i, seq)| {
-                    let received_us = to_us(batches[i].received_at_s);
-                    let writer = batches[i].writer;
-                    batches[i]
-                        .rows
-                        .iter()
-                        .map(move |r| (seq, received_us, writer, r))
-                })
-                .collect();
-            let mut stored: Vec<Vec<ObservationRow>> = vec![Vec::new(); idx.len()];
-            for chunk in rows.chunks(INSERT_CHUNK_ROWS) {
-                let sql = values_sql(
-                    "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq, written_by) VALUES ",
-                    10,
-                    chunk.len(),
-                    " ON CONFLICT DO NOTHING RETURNING obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, seq",
-                );
-                let mut q = sqlx::query(AssertSqlSafe(sql));
-                for &(seq, received_us, writer, r) in chunk {
-                    q = q
-                        .bind(mission_id.to_string())
-                        .bind(r.obstacle_id.clone())
-                        .bind(to_us(r.t_s))
-                        .bind(r.lat_deg)
-                        .bind(r.lon_deg)
-                        .bind(r.alt_msl_m)
-                        .bind(r.radius_m)
-                        .bind(received_us)
-                        .bind(seq)
-                        .bind(writer.to_string());
-                }
-                for r in q.fetch_all(&mut **tx).await? {
-                    let seq: i64 = r.try_get(6)?;
-                    let k = usize::try_from(seq - first)
-                        .ok()
-                        .filter(|&k| k < stored.len())
-                        .ok_or_else(|| sqlx::Error::Protocol(format!("unexpected batch {seq}")))?;
-                    stored[k].push(observation_row(&r)?);
-                }
+        if missions.is_empty() {
+            return Ok(out);
+        }
+        // One statement bumps every mission's counter (one round trip to the database
+        // however many missions the group holds); a mission that does not exist returns
+        // no row.
+        let cases: String = (0..missions.len())
+            .map(|k| format!(" WHEN ${} THEN ${}", 2 * k + 1, 2 * k + 2))
+            .collect();
+        let ids = (0..missions.len())
+            .map(|k| format!("${}", 2 * k + 1))
+            .collect::<Vec<_>>()
+            .join(",");
+        let mut q = sqlx::query(AssertSqlSafe(format!(
+            "UPDATE missions SET obs_seq = obs_seq + CASE id{cases} END WHERE id IN ({ids}) RETURNING id, obs_seq"
+        )));
+        for &(m, n) in &missions {
+            q = q.bind(m.to_string()).bind(n);
+        }
+        let mut last_seq: HashMap<String, i64> = HashMap::new();
+        for r in q.fetch_all(&mut **tx).await? {
+            last_seq.insert(r.try_get(0)?, r.try_get(1)?);
+        }
+        // Each batch of an existing mission takes the next of its mission's numbers, in
+        // the order given.
+        let mut next_seq: HashMap<&str, i64> = missions
+            .iter()
+            .filter_map(|&(m, n)| Some((m, last_seq.get(m)? - n + 1)))
+            .collect();
+        let mut batch_of: HashMap<(&str, i64), usize> = HashMap::new();
+        let mut seqs: Vec<Option<i64>> = vec![None; batches.len()];
+        for (i, b) in batches.iter().enumerate() {
+            if let Some(seq) = next_seq.get_mut(b.mission_id) {
+                seqs[i] = Some(*seq);
+                batch_of.insert((b.mission_id, *seq), i);
+                *seq += 1;
             }
-            for ((&i, seq), mut st) in idx.iter().zip(first..).zip(stored) {
-                if self.backend == Backend::Postgres {
-                    sqlx::query("SELECT 1 FROM (SELECT pg_notify($1, $2)) AS n")
-                        .bind(OBSERVATION_CHANNEL)
-                        .bind(format!("{seq} {mission_id}"))
-                        .execute(&mut **tx)
-                        .await?;
-                }
-                sort_feeding_order(&mut st);
-                let accepted = st.len() as u64;
-                out[i] = Some(StoredBatch {
-                    seq,
-                    counts: InsertCounts {
-                        accepted,
-                        duplicate: batches[i].rows.len() as u64 - accepted,
-                    },
-                    stored: st,
-                });
+        }
+        let rows: Vec<(&str, i64, i64, &str, &ObservationRow)> = batches
+            .iter()
+            .zip(&seqs)
+            .filter_map(|(b, seq)| Some((b, (*seq)?)))
+            .flat_map(|(b, seq)| {
+                let received_us = to_us(b.received_at_s);
+                b.rows
+                    .iter()
+                    .map(move |r| (b.mission_id, seq, received_us, b.writer, r))
+            })
+            .collect();
+        let mut stored: Vec<Vec<ObservationRow>> = vec![Vec::new(); batches.len()];
+        for chunk in rows.chunks(INSERT_CHUNK_ROWS) {
+            let sql = values_sql(
+                "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq, written_by) VALUES ",
+                10,
+                chunk.len(),
+                " ON CONFLICT DO NOTHING RETURNING obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, seq, mission_id",
+            );
+            let mut q = sqlx::query(AssertSqlSafe(sql));
+            for &(mission_id, seq, received_us, writer, r) in chunk {
+                q = q
+                    .bind(mission_id.to_string())
+                    .bind(r.obstacle_id.clone())
+                    .bind(to_us(r.t_s))
+                    .bind(r.lat_deg)
+                    .bind(r.lon_deg)
+                    .bind(r.alt_msl_m)
+                    .bind(r.radius_m)
+                    .bind(received_us)
+                    .bind(seq)
+                    .bind(writer.to_string());
             }
+            for r in q.fetch_all(&mut **tx).await? {
+                let (seq, mission_id): (i64, String) = (r.try_get(6)?, r.try_get(7)?);
+                let k = batch_of.get(&(mission_id.as_str(), seq)).ok_or_else(|| {
+                    sqlx::Error::Protocol(format!("unexpected batch {seq} of {mission_id}"))
+                })?;
+                stored[*k].push(observation_row(&r)?);
+            }
+        }
+        for ((i, seq), mut st) in seqs.iter().enumerate().zip(stored) {
+            let Some(seq) = *seq else { continue };
+            if self.backend == Backend::Postgres {
+                sqlx::query("SELECT 1 FROM (SELECT pg_notify($1, $2)) AS n")
+                    .bind(OBSERVATION_CHANNEL)
+                    .bind(format!("{seq} {}", batches[i].mission_id))
+                    .execute(&mut **tx)
+                    .await?;
+            }
+            sort_feeding_order(&mut st);
+            let accepted = st.len() as u64;
+            out[i] = Some(StoredBatch {
+                seq,
+                counts: InsertCounts {
+                    accepted,
+                    duplicate: batches[i].rows.len() as u64 - accepted,
+                },
+                stored: st,
+            });
         }
         Ok(out)
     }
