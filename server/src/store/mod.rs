@@ -373,7 +373,9 @@ impl Store {
     }
 
     /// Stores aircraft telemetry, all or none; a sample at an already stored time is a
-    /// duplicate. `Ok(None)` when the mission does not exist.
+    /// duplicate. `Ok(None)` when the mission does not exist. On SQLite, posts arriving
+    /// together share one transaction with the observation batches waiting then
+    /// (`group_commit`), on the writer thread (`writer`).
     #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]
     pub async fn insert_telemetry(
         &self,
