@@ -26,9 +26,12 @@ use std::collections::{HashMap, HashSet};
 use sqlx::{AssertSqlSafe, Row};
 use tokio::sync::{mpsc, oneshot};
 
-use super::observations::{NewBatch, StoredBatch};
+use super::observations::{NewBatch, NewRows, StoredBatch};
 use super::writer::WriterThread;
-use super::{InsertCounts, ObservationRow, Store, TelemetryRow, values_sql};
+use super::{
+    InsertCounts, ObservationRow, Store, TELEMETRY_COLUMNS, TELEMETRY_INSERT, TelemetryRow,
+    bind_telemetry, values_sql,
+};
 use crate::time::to_us;
 
 /// Most requests stored in one transaction.
@@ -41,17 +44,7 @@ const TELEMETRY_CHUNK_ROWS: usize = 32;
 type Reply<T> = oneshot::Sender<Result<T, sqlx::Error>>;
 
 /// One telemetry post to store (see [`Store::commit_group`]).
-#[derive(Debug, Clone, Copy)]
-pub struct NewTelemetry<'a> {
-    /// Its mission.
-    pub mission_id: &'a str,
-    /// Its samples, in any order.
-    pub rows: &'a [TelemetryRow],
-    /// When it was received, Unix seconds.
-    pub received_at_s: f64,
-    /// The name of the token that sent it (`local` without one).
-    pub writer: &'a str,
-}
+pub type NewTelemetry<'a> = NewRows<'a, TelemetryRow>;
 
 struct Request<R, T> {
     mission_id: String,
@@ -61,30 +54,35 @@ struct Request<R, T> {
     reply: Reply<T>,
 }
 
+impl<R: Clone, T> Request<R, T> {
+    fn new(
+        mission_id: &str,
+        rows: &[R],
+        received_at_s: f64,
+        writer: &str,
+        reply: Reply<T>,
+    ) -> Self {
+        Self {
+            mission_id: mission_id.to_string(),
+            rows: rows.to_vec(),
+            received_at_s,
+            writer: writer.to_string(),
+            reply,
+        }
+    }
+
+    fn rows(&self) -> NewRows<'_, R> {
+        NewRows {
+            mission_id: &self.mission_id,
+            rows: &self.rows,
+            received_at_s: self.received_at_s,
+            writer: &self.writer,
+        }
+    }
+}
+
 type BatchJob = Request<ObservationRow, Option<StoredBatch>>;
 type TelemetryJob = Request<TelemetryRow, Option<InsertCounts>>;
-
-impl BatchJob {
-    fn batch(&self) -> NewBatch<'_> {
-        NewBatch {
-            mission_id: &self.mission_id,
-            rows: &self.rows,
-            received_at_s: self.received_at_s,
-            writer: &self.writer,
-        }
-    }
-}
-
-impl TelemetryJob {
-    fn post(&self) -> NewTelemetry<'_> {
-        NewTelemetry {
-            mission_id: &self.mission_id,
-            rows: &self.rows,
-            received_at_s: self.received_at_s,
-            writer: &self.writer,
-        }
-    }
-}
 
 enum Job {
     Batch(BatchJob),
@@ -121,16 +119,8 @@ impl GroupCommit {
         received_at_s: f64,
         writer: &str,
     ) -> Option<Result<Option<StoredBatch>, sqlx::Error>> {
-        self.send(|reply| {
-            Job::Batch(Request {
-                mission_id: mission_id.to_string(),
-                rows: rows.to_vec(),
-                received_at_s,
-                writer: writer.to_string(),
-                reply,
-            })
-        })
-        .await
+        self.send(|reply| Job::Batch(Request::new(mission_id, rows, received_at_s, writer, reply)))
+            .await
     }
 
     /// Stores one telemetry post (see [`Store::insert_telemetry`]); `None` when the task
@@ -143,13 +133,7 @@ impl GroupCommit {
         writer: &str,
     ) -> Option<Result<Option<InsertCounts>, sqlx::Error>> {
         self.send(|reply| {
-            Job::Telemetry(Request {
-                mission_id: mission_id.to_string(),
-                rows: rows.to_vec(),
-                received_at_s,
-                writer: writer.to_string(),
-                reply,
-            })
+            Job::Telemetry(Request::new(mission_id, rows, received_at_s, writer, reply))
         })
         .await
     }
@@ -170,8 +154,8 @@ async fn run(store: Store, mut rx: mpsc::Receiver<Job>) {
                 Err(_) => break,
             }
         }
-        let new_batches: Vec<NewBatch<'_>> = batches.iter().map(BatchJob::batch).collect();
-        let new_posts: Vec<NewTelemetry<'_>> = posts.iter().map(TelemetryJob::post).collect();
+        let new_batches: Vec<NewBatch<'_>> = batches.iter().map(BatchJob::rows).collect();
+        let new_posts: Vec<NewTelemetry<'_>> = posts.iter().map(TelemetryJob::rows).collect();
         let result = store.commit_group(&new_batches, &new_posts).await;
         drop((new_batches, new_posts));
         match result {
@@ -194,14 +178,14 @@ async fn run(store: Store, mut rx: mpsc::Receiver<Job>) {
                 tracing::warn!(error = %e, batches = batches.len(), posts = posts.len(), "group commit failed; storing its requests one by one");
                 for j in batches.drain(..) {
                     let r = store
-                        .commit_group(&[j.batch()], &[])
+                        .commit_group(&[j.rows()], &[])
                         .await
                         .map(|(mut v, _)| v.pop().flatten());
                     let _ = j.reply.send(r);
                 }
                 for j in posts.drain(..) {
                     let r = store
-                        .commit_group(&[], &[j.post()])
+                        .commit_group(&[], &[j.rows()])
                         .await
                         .map(|(_, mut v)| v.pop().flatten());
                     let _ = j.reply.send(r);
@@ -297,24 +281,15 @@ async fn telemetry_in(
     let mut accepted = vec![0_u64; posts.len()];
     for chunk in rows.chunks(TELEMETRY_CHUNK_ROWS) {
         let sql = values_sql(
-            "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us, written_by) VALUES ",
-            9,
+            TELEMETRY_INSERT,
+            TELEMETRY_COLUMNS,
             chunk.len(),
             " ON CONFLICT DO NOTHING RETURNING mission_id, t_us",
         );
         let mut q = sqlx::query(AssertSqlSafe(sql));
         for &(i, r) in chunk {
             let p = &posts[i];
-            q = q
-                .bind(p.mission_id.to_string())
-                .bind(to_us(r.t_s))
-                .bind(r.lat_deg)
-                .bind(r.lon_deg)
-                .bind(r.alt_msl_m)
-                .bind(r.heading_deg)
-                .bind(r.speed_mps)
-                .bind(to_us(p.received_at_s))
-                .bind(p.writer.to_string());
+            q = bind_telemetry(q, p.mission_id, r, to_us(p.received_at_s), p.writer);
         }
         for r in q.fetch_all(&mut **tx).await? {
             let (m, t): (String, i64) = (r.try_get(0)?, r.try_get(1)?);

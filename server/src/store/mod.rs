@@ -391,22 +391,10 @@ impl Store {
         {
             return r;
         }
-        let r = match &self.writer {
-            Some(w) => {
-                let (store, mission_id, rows) = (self.clone(), mission_id.clone(), rows.to_vec());
-                w.run(async move {
-                    store
-                        .insert_telemetry_inner(&mission_id, &rows, received_at_s, writer)
-                        .await
-                })
-                .await
-            }
-            None => {
-                self.insert_telemetry_inner(mission_id, rows, received_at_s, writer)
-                    .await
-            }
-        };
-        missing_mission(r)
+        missing_mission(
+            self.insert_telemetry_inner(mission_id, rows, received_at_s, &writer)
+                .await,
+        )
     }
 
     async fn insert_telemetry_inner(
@@ -414,28 +402,15 @@ impl Store {
         mission_id: &MissionId,
         rows: &[TelemetryRow],
         received_at_s: f64,
-        writer: String,
+        writer: &str,
     ) -> Result<InsertCounts, sqlx::Error> {
         if rows.is_empty() {
             return self.empty_batch(mission_id).await;
         }
         let received_us = to_us(received_at_s);
-        self.insert_batch(
-            "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us, written_by) VALUES ",
-            9,
-            rows,
-            |q, r| {
-                q.bind(mission_id.to_string())
-                    .bind(to_us(r.t_s))
-                    .bind(r.lat_deg)
-                    .bind(r.lon_deg)
-                    .bind(r.alt_msl_m)
-                    .bind(r.heading_deg)
-                    .bind(r.speed_mps)
-                    .bind(received_us)
-                    .bind(writer.clone())
-            },
-        )
+        self.insert_batch(TELEMETRY_INSERT, TELEMETRY_COLUMNS, rows, |q, r| {
+            bind_telemetry(q, &mission_id.0, r, received_us, writer)
+        })
         .await
     }
 
@@ -458,6 +433,30 @@ impl Store {
         let rows = self.list_telemetry_written(mission_id, last).await?;
         Ok(rows.into_iter().map(|(row, _writer)| row).collect())
     }
+}
+
+/// The head of a telemetry insert (`values_sql` adds the rows) and its columns per row, in
+/// the order [`bind_telemetry`] binds them.
+pub(crate) const TELEMETRY_INSERT: &str = "INSERT INTO aircraft_telemetry (mission_id, t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps, received_at_us, written_by) VALUES ";
+pub(crate) const TELEMETRY_COLUMNS: usize = 9;
+
+/// Binds one telemetry sample's row of [`TELEMETRY_INSERT`].
+pub(crate) fn bind_telemetry<'q>(
+    q: AnyQuery<'q>,
+    mission_id: &str,
+    r: &TelemetryRow,
+    received_us: i64,
+    writer: &str,
+) -> AnyQuery<'q> {
+    q.bind(mission_id.to_string())
+        .bind(to_us(r.t_s))
+        .bind(r.lat_deg)
+        .bind(r.lon_deg)
+        .bind(r.alt_msl_m)
+        .bind(r.heading_deg)
+        .bind(r.speed_mps)
+        .bind(received_us)
+        .bind(writer.to_string())
 }
 
 /// Copies the SQLite WAL into the database file in the background (PASSIVE: it never

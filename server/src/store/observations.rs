@@ -50,18 +50,30 @@ pub fn sort_feeding_order(rows: &mut [ObservationRow]) {
 /// more time binding than storing.
 const INSERT_CHUNK_ROWS: usize = 32;
 
-/// One batch to store (see [`Store::commit_batches`]).
-#[derive(Debug, Clone, Copy)]
-pub struct NewBatch<'a> {
+/// One request's rows to store: an observation batch ([`Store::commit_batches`]) or a
+/// telemetry post (`Store::commit_group`).
+#[derive(Debug)]
+pub struct NewRows<'a, R> {
     /// Its mission.
     pub mission_id: &'a str,
     /// Its rows, in any order.
-    pub rows: &'a [ObservationRow],
+    pub rows: &'a [R],
     /// When it was received, Unix seconds.
     pub received_at_s: f64,
     /// The name of the token that sent it (`local` without one).
     pub writer: &'a str,
 }
+
+impl<R> Clone for NewRows<'_, R> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<R> Copy for NewRows<'_, R> {}
+
+/// One observation batch to store (see [`Store::commit_batches`]).
+pub type NewBatch<'a> = NewRows<'a, ObservationRow>;
 
 impl Store {
     /// Stores obstacle observations as the mission's next batch, all or none; a row whose
