@@ -6,7 +6,8 @@
 //!   and back), `compute` (the plan itself, its `compute_ms`), `store` (answer and record
 //!   built, plan row written);
 //! - `POST .../obstacles`: `parse` (JSON to observations), `store` (the batch committed),
-//!   `live` (the batch fed to the mission's live state).
+//!   `live` (the batch fed to the mission's live state);
+//! - `POST .../telemetry`: `parse` (body to samples), `store` (the samples committed).
 //!
 //! It reveals nothing a client could not time itself.
 

@@ -170,7 +170,8 @@ async fn post_telemetry(
     Path(id): Path<MissionId>,
     headers: HeaderMap,
     Body(body): Body,
-) -> Result<(StatusCode, axum::Json<IngestResult>), ApiError> {
+) -> Result<axum::response::Response, ApiError> {
+    let mut timing = ServerTiming::start();
     let received = now_s();
     let rows = telemetry_rows(
         &state,
@@ -179,12 +180,16 @@ async fn post_telemetry(
         received,
         "aircraft telemetry is application/json (native or interop 2019) or application/x-www-form-urlencoded (interop 2018)",
     )?;
+    timing.lap("parse");
     let counts = state
         .store
         .insert_telemetry(&id, &rows, received)
         .await?
         .ok_or_else(|| ApiError::not_found("mission", &id))?;
-    Ok((StatusCode::ACCEPTED, axum::Json(counts.into())))
+    timing.lap("store");
+    let mut resp = (StatusCode::ACCEPTED, axum::Json(IngestResult::from(counts))).into_response();
+    crate::timing::insert(&mut resp, &timing);
+    Ok(resp)
 }
 
 /// `?last=` of the telemetry listing.

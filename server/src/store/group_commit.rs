@@ -6,7 +6,10 @@
 //! one task owns the queue: it takes every write waiting (up to [`MAX_GROUP`]) and stores
 //! them in one transaction ([`Store::commit_group`]): one counter bump and one multi-row
 //! insert per mission for the observation batches, one multi-row insert for all the
-//! telemetry posts, then answers each request. A lone write goes at once (no waiting for
+//! telemetry posts, then answers each request. Telemetry posts that come without batches
+//! need no transaction: they are stored with one statement per [`TELEMETRY_CHUNK_ROWS`]
+//! rows, never splitting a post ([`Store::commit_posts`]), one round trip instead of
+//! `BEGIN`, a lookup of the missions, the insert and `COMMIT`. A lone write goes at once (no waiting for
 //! company), so a quiet mission's latency is a single transaction as before. The task runs
 //! on the database writer's runtime ([`super::writer`]).
 //!
@@ -154,6 +157,10 @@ async fn run(store: Store, mut rx: mpsc::Receiver<Job>) {
                 Err(_) => break,
             }
         }
+        if batches.is_empty() {
+            store_posts(&store, &mut posts).await;
+            continue;
+        }
         let new_batches: Vec<NewBatch<'_>> = batches.iter().map(BatchJob::rows).collect();
         let new_posts: Vec<NewTelemetry<'_>> = posts.iter().map(TelemetryJob::rows).collect();
         let result = store.commit_group(&new_batches, &new_posts).await;
@@ -195,6 +202,43 @@ async fn run(store: Store, mut rx: mpsc::Receiver<Job>) {
     }
 }
 
+/// Stores a group of telemetry posts alone (no batches with them): one statement per run
+/// of [`post_runs`] without a transaction, a post too large for one statement in a
+/// transaction of its own; if a run fails, its posts are retried one transaction each.
+async fn store_posts(store: &Store, posts: &mut Vec<TelemetryJob>) {
+    let mut answers = Vec::with_capacity(posts.len());
+    for (range, one_statement) in post_runs(posts) {
+        let run = &posts[range];
+        let result = if one_statement {
+            let new: Vec<NewTelemetry<'_>> = run.iter().map(TelemetryJob::rows).collect();
+            store.commit_posts(&new).await
+        } else {
+            store
+                .commit_group(&[], &[run[0].rows()])
+                .await
+                .map(|(_, counted)| counted)
+        };
+        match result {
+            Ok(counted) => answers.extend(counted.into_iter().map(Ok)),
+            Err(e) if run.len() == 1 => answers.push(Err(e)),
+            Err(e) => {
+                tracing::warn!(error = %e, posts = run.len(), "telemetry insert failed; storing its posts one by one");
+                for j in run {
+                    answers.push(
+                        store
+                            .commit_group(&[], &[j.rows()])
+                            .await
+                            .map(|(_, mut v)| v.pop().flatten()),
+                    );
+                }
+            }
+        }
+    }
+    for (j, a) in posts.drain(..).zip(answers) {
+        let _ = j.reply.send(a);
+    }
+}
+
 /// Per-request answers of [`Store::commit_group`]: the batches', then the posts'.
 pub type GroupAnswers = (Vec<Option<StoredBatch>>, Vec<Option<InsertCounts>>);
 
@@ -224,51 +268,74 @@ impl Store {
         tx.commit().await?;
         Ok((stored, counted))
     }
+
+    /// Stores telemetry `posts` that together hold at most [`TELEMETRY_CHUNK_ROWS`] rows
+    /// with one statement and no transaction of its own (`BEGIN` and `COMMIT` would be two
+    /// more round trips to SQLite's connection thread): a single statement is atomic, so
+    /// every post is still all or none. Answers as [`Store::commit_group`].
+    ///
+    /// # Errors
+    /// Database failures (nothing is stored); more rows than one statement takes.
+    pub async fn commit_posts(
+        &self,
+        posts: &[NewTelemetry<'_>],
+    ) -> Result<Vec<Option<InsertCounts>>, sqlx::Error> {
+        if posts.iter().map(|p| p.rows.len()).sum::<usize>() > TELEMETRY_CHUNK_ROWS {
+            return Err(sqlx::Error::Protocol(
+                "commit_posts takes one statement's rows at most".into(),
+            ));
+        }
+        let mut conn = self.write.acquire().await?;
+        telemetry_in(&mut conn, posts, &HashMap::new()).await
+    }
 }
 
-/// The telemetry part of [`Store::commit_group`], inside `tx`.
+/// `posts` cut into runs that one statement of [`Store::commit_posts`] takes, as index
+/// ranges in order, marked `true`; a post with more rows than that is a run of its own,
+/// marked `false` (it needs a transaction).
+fn post_runs(posts: &[TelemetryJob]) -> Vec<(std::ops::Range<usize>, bool)> {
+    let mut runs = Vec::new();
+    let (mut from, mut rows) = (0, 0);
+    for (i, p) in posts.iter().enumerate() {
+        let n = p.rows.len();
+        if n > TELEMETRY_CHUNK_ROWS {
+            if from < i {
+                runs.push((from..i, true));
+            }
+            runs.push((i..i + 1, false));
+            (from, rows) = (i + 1, 0);
+            continue;
+        }
+        if rows + n > TELEMETRY_CHUNK_ROWS {
+            runs.push((from..i, true));
+            (from, rows) = (i, 0);
+        }
+        rows += n;
+    }
+    if from < posts.len() {
+        runs.push((from..posts.len(), true));
+    }
+    runs
+}
+
+/// Stores telemetry `posts` through `conn` (inside the group's transaction, or alone: see
+/// [`Store::commit_posts`]). The insert itself leaves out rows of missions that do not
+/// exist (`WHERE EXISTS`), so the usual case is one statement per [`TELEMETRY_CHUNK_ROWS`]
+/// rows and nothing else; only posts that stored nothing new (duplicates, an empty post, a
+/// missing mission) are then told apart by one lookup of their missions, unless `known`
+/// (the group's batches) already says.
 async fn telemetry_in(
-    tx: &mut sqlx::Transaction<'static, sqlx::Any>,
+    conn: &mut sqlx::AnyConnection,
     posts: &[NewTelemetry<'_>],
     known: &HashMap<&str, bool>,
 ) -> Result<Vec<Option<InsertCounts>>, sqlx::Error> {
     if posts.is_empty() {
         return Ok(Vec::new());
     }
-    // Posts for a mission that does not exist answer `None` instead of failing the
-    // group's insert on its foreign key. Missions not `known` are looked up.
-    let mut existing: HashSet<&str> = known
-        .iter()
-        .filter_map(|(m, there)| there.then_some(*m))
-        .collect();
-    let mut missions: Vec<&str> = Vec::new();
-    for p in posts {
-        if !known.contains_key(p.mission_id) && !missions.contains(&p.mission_id) {
-            missions.push(p.mission_id);
-        }
-    }
-    if !missions.is_empty() {
-        let marks = (1..=missions.len())
-            .map(|i| format!("${i}"))
-            .collect::<Vec<_>>()
-            .join(",");
-        let mut q = sqlx::query(AssertSqlSafe(format!(
-            "SELECT id FROM missions WHERE id IN ({marks})"
-        )));
-        for m in &missions {
-            q = q.bind(m.to_string());
-        }
-        for r in q.fetch_all(&mut **tx).await? {
-            let id: String = r.try_get(0)?;
-            if let Some(m) = missions.iter().find(|m| **m == id) {
-                existing.insert(m);
-            }
-        }
-    }
     let rows: Vec<(usize, &TelemetryRow)> = posts
         .iter()
         .enumerate()
-        .filter(|(_, p)| existing.contains(p.mission_id))
+        .filter(|(_, p)| known.get(p.mission_id) != Some(&false))
         .flat_map(|(i, p)| p.rows.iter().map(move |r| (i, r)))
         .collect();
     // A stored (mission, time) belongs to the first post that carried it.
@@ -279,24 +346,68 @@ async fn telemetry_in(
             .or_insert(i);
     }
     let mut accepted = vec![0_u64; posts.len()];
+    let head = format!(
+        "{} SELECT * FROM (VALUES ",
+        TELEMETRY_INSERT.trim_end_matches("VALUES ")
+    );
     for chunk in rows.chunks(TELEMETRY_CHUNK_ROWS) {
         let sql = values_sql(
-            TELEMETRY_INSERT,
+            &head,
             TELEMETRY_COLUMNS,
             chunk.len(),
-            " ON CONFLICT DO NOTHING RETURNING mission_id, t_us",
+            ") AS v WHERE EXISTS (SELECT 1 FROM missions WHERE id = v.column1) \
+             ON CONFLICT DO NOTHING RETURNING mission_id, t_us",
         );
         let mut q = sqlx::query(AssertSqlSafe(sql));
         for &(i, r) in chunk {
             let p = &posts[i];
             q = bind_telemetry(q, p.mission_id, r, to_us(p.received_at_s), p.writer);
         }
-        for r in q.fetch_all(&mut **tx).await? {
+        for r in q.fetch_all(&mut *conn).await? {
             let (m, t): (String, i64) = (r.try_get(0)?, r.try_get(1)?);
             let k = first_post
                 .get(&(m.as_str(), t))
                 .ok_or_else(|| sqlx::Error::Protocol(format!("unexpected sample {m} {t}")))?;
             accepted[*k] += 1;
+        }
+    }
+    // A mission exists if the batches say so or a post of it stored a row.
+    let mut existing: HashSet<&str> = known
+        .iter()
+        .filter_map(|(m, there)| there.then_some(*m))
+        .collect();
+    existing.extend(
+        posts
+            .iter()
+            .zip(&accepted)
+            .filter(|(_, a)| **a > 0)
+            .map(|(p, _)| p.mission_id),
+    );
+    let mut ask: Vec<&str> = Vec::new();
+    for p in posts {
+        if !known.contains_key(p.mission_id)
+            && !existing.contains(p.mission_id)
+            && !ask.contains(&p.mission_id)
+        {
+            ask.push(p.mission_id);
+        }
+    }
+    if !ask.is_empty() {
+        let marks = (1..=ask.len())
+            .map(|i| format!("${i}"))
+            .collect::<Vec<_>>()
+            .join(",");
+        let mut q = sqlx::query(AssertSqlSafe(format!(
+            "SELECT id FROM missions WHERE id IN ({marks})"
+        )));
+        for m in &ask {
+            q = q.bind(m.to_string());
+        }
+        for r in q.fetch_all(&mut *conn).await? {
+            let id: String = r.try_get(0)?;
+            if let Some(m) = ask.iter().find(|m| **m == id) {
+                existing.insert(m);
+            }
         }
     }
     Ok(posts
@@ -458,6 +569,141 @@ mod tests {
             ],
             "the first copy of each time wins"
         );
+    }
+
+    #[tokio::test]
+    async fn posts_stored_without_a_transaction_tell_duplicates_from_missing_missions() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        let id = wire::ids::MissionId::from("webster");
+        store
+            .insert_telemetry(&id, &[sample(1.0, 38.0)], 5.0)
+            .await
+            .expect("insert")
+            .expect("mission");
+        let a = [sample(1.0, 38.1), sample(2.0, 38.1)];
+        let b = [sample(2.0, 38.2), sample(3.0, 38.2), sample(3.0, 38.3)];
+        let old = [sample(1.0, 38.5)];
+        let post = |mission_id, rows| NewTelemetry {
+            mission_id,
+            rows,
+            received_at_s: 10.0,
+            writer: "gcs",
+        };
+        let counted = store
+            .commit_posts(&[
+                post("webster", &a),
+                post("nope", &a),
+                post("webster", &b),
+                post("webster", &old),
+                post("webster", &[]),
+                post("nope", &[]),
+            ])
+            .await
+            .expect("commit");
+        let counts = |accepted, duplicate| {
+            Some(InsertCounts {
+                accepted,
+                duplicate,
+            })
+        };
+        assert_eq!(
+            counted,
+            [
+                counts(1, 1),
+                None,
+                counts(1, 2),
+                counts(0, 1),
+                counts(0, 0),
+                None
+            ],
+            "a: t=1 stored before; b: t=2 is a's, its second t=3 its own duplicate; \
+             an all-duplicate post and an empty one still exist; missing missions are None"
+        );
+        let listed = store.list_telemetry_written(&id, None).await.expect("list");
+        let got: Vec<(f64, f64, &str)> = listed
+            .iter()
+            .map(|(r, w)| (r.t_s, r.lat_deg, w.as_str()))
+            .collect();
+        assert_eq!(
+            got,
+            [(1.0, 38.0, "local"), (2.0, 38.1, "gcs"), (3.0, 38.2, "gcs")]
+        );
+        let too_many: Vec<TelemetryRow> = (0..=TELEMETRY_CHUNK_ROWS)
+            .map(|k| sample(100.0 + k as f64, 38.0))
+            .collect();
+        assert!(
+            store
+                .commit_posts(&[post("webster", &too_many)])
+                .await
+                .is_err(),
+            "more rows than one statement takes is refused, not split"
+        );
+        assert_eq!(
+            store.list_telemetry(&id, None).await.expect("list").len(),
+            3
+        );
+    }
+
+    #[test]
+    fn posts_are_cut_into_statements_at_post_boundaries() {
+        let job = |n: usize| {
+            let (reply, _) = oneshot::channel();
+            TelemetryJob::new("m", &vec![sample(0.0, 38.0); n], 0.0, "local", reply)
+        };
+        let sizes = [1, 1, 40, 30, 5, 32, 0, 1];
+        let jobs: Vec<TelemetryJob> = sizes.iter().map(|&n| job(n)).collect();
+        assert_eq!(
+            post_runs(&jobs),
+            [
+                (0..2, true),
+                (2..3, false),
+                (3..4, true),
+                (4..5, true),
+                (5..7, true),
+                (7..8, true)
+            ],
+            "30 + 5 and 32 + 0 + 1 are more than one statement's 32 rows"
+        );
+        for (r, one) in post_runs(&jobs) {
+            if one {
+                assert!(sizes[r].iter().sum::<usize>() <= TELEMETRY_CHUNK_ROWS);
+            }
+        }
+    }
+
+    #[tokio::test]
+    async fn a_post_larger_than_one_statement_goes_through_the_queue_whole() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        let id = wire::ids::MissionId::from("webster");
+        let big: Vec<TelemetryRow> = (0..3 * TELEMETRY_CHUNK_ROWS)
+            .map(|k| sample(k as f64, 38.0))
+            .collect();
+        let tasks: Vec<_> = (0..10_u32)
+            .map(|i| {
+                let (store, id, big) = (store.clone(), id.clone(), big.clone());
+                tokio::spawn(async move {
+                    if i == 5 {
+                        store.insert_telemetry(&id, &big, 11.0).await
+                    } else {
+                        let t = 1000.0 + f64::from(i);
+                        store.insert_telemetry(&id, &[sample(t, 38.1)], 11.0).await
+                    }
+                })
+            })
+            .collect();
+        let mut got = Vec::new();
+        for t in tasks {
+            let c = t.await.expect("task").expect("insert").expect("mission");
+            got.push((c.accepted, c.duplicate));
+        }
+        let big_n = 3 * TELEMETRY_CHUNK_ROWS as u64;
+        let mut want = vec![(1, 0); 10];
+        want[5] = (big_n, 0);
+        assert_eq!(got, want);
+        let rows = store.list_telemetry(&id, None).await.expect("rows");
+        assert_eq!(rows.len() as u64, big_n + 9);
     }
 
     #[tokio::test]

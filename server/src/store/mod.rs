@@ -113,7 +113,11 @@ impl Store {
                 let pool = |n: u32| {
                     AnyPoolOptions::new()
                         .max_connections(n)
-                        .min_connections(1)
+                        // Every connection opened at start, none on a request's path.
+                        .min_connections(n)
+                        // No ping (a round trip to the connection's thread) before each
+                        // use: a connection to a local file does not go stale.
+                        .test_before_acquire(false)
                         .acquire_timeout(Duration::from_secs(30))
                         .after_connect(|conn, _| {
                             Box::pin(async move {
