@@ -112,6 +112,10 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
         async move {
             let client = reqwest::Client::builder()
                 .pool_max_idle_per_host(4 * clients)
+                // Below the server's 10 s idle limit (`--header-read-timeout-s`): a client
+                // that keeps an idle connection longer races the server closing it, and a
+                // request sent at that moment fails with a connection error.
+                .pool_idle_timeout(Duration::from_secs(5))
                 .timeout(Duration::from_secs(120))
                 .build()
                 .unwrap();

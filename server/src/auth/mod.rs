@@ -18,8 +18,9 @@
 //! - **Credentials**: `Authorization: Bearer TOKEN`, or `Authorization: Basic` with the
 //!   token as the password (what a browser's own prompt sends, so the operator page works
 //!   on a guarded bind: a 401 offers both schemes).
-//! - **Revocation** reaches every replica within [`Settings::token_cache`]: valid and
-//!   unknown tokens are remembered that long, then looked up again.
+//! - **Revocation** reaches every replica within [`Settings::token_cache`]: the table of
+//!   valid tokens is read whole (one small query) and kept that long, then read again
+//!   ([`TokenCache`]).
 //! - **Who wrote what**: the guard runs the rest of the request inside
 //!   [`WRITER`], the name of the token (or `local`); the store records it with every
 //!   mission, observation, telemetry sample and plan ([`writer`]).
@@ -30,7 +31,8 @@
 //! [`Settings::token_cache`]: crate::app::Settings
 
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use axum::extract::{Request, State};
@@ -48,10 +50,6 @@ pub use limits::{RateLimits, RateSettings};
 
 /// The writer recorded for requests without a token.
 pub const LOCAL: &str = "local";
-
-/// Most entries of the verified-token cache; beyond it the cache starts afresh (a flood
-/// of made-up tokens cannot grow memory).
-const CACHE_MAX: usize = 10_000;
 
 tokio::task_local! {
     /// The name of the token the current request carries (or [`LOCAL`]).
@@ -267,30 +265,47 @@ pub fn credentials(headers: &HeaderMap) -> Result<Option<String>, ApiError> {
     ))
 }
 
-/// A cached verdict: the token's name and role (`None`: no valid token), and when it was
-/// looked up.
-type Verdict = (Option<(Arc<str>, Role)>, Instant);
+/// The valid tokens by digest: name and role.
+type Table = HashMap<String, (Arc<str>, Role)>;
 
-/// Verified tokens, remembered for a short time so that a request costs no database read.
+/// The valid tokens, all read at once (one small query) and kept `ttl`, so that a request
+/// costs no database read: with many tokens in use, per-token entries expired together and
+/// were looked up again in a burst (200 clients at once every `ttl`); a made-up token costs
+/// nothing either. One reload at a time: requests that find the table stale wait for the
+/// reload in progress instead of starting their own.
 #[derive(Debug)]
 pub struct TokenCache {
     ttl: Duration,
-    entries: Mutex<HashMap<String, Verdict>>,
+    table: std::sync::RwLock<Option<(Arc<Table>, Instant)>>,
+    reload: tokio::sync::Mutex<()>,
+    reads: AtomicU64,
 }
 
 impl TokenCache {
-    /// A cache whose entries live `ttl` (zero: every request reads the database).
+    /// A cache whose table lives `ttl` (zero: every request reads the database).
     pub fn new(ttl: Duration) -> Self {
         Self {
             ttl,
-            entries: Mutex::new(HashMap::new()),
+            table: std::sync::RwLock::new(None),
+            reload: tokio::sync::Mutex::new(()),
+            reads: AtomicU64::new(0),
         }
     }
 
-    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<String, Verdict>> {
-        self.entries
-            .lock()
-            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    /// How many times the table has been read from the database.
+    #[cfg(test)]
+    pub fn reads(&self) -> u64 {
+        self.reads.load(Ordering::Relaxed)
+    }
+
+    /// The table, when it was read less than `ttl` ago.
+    fn fresh(&self) -> Option<Arc<Table>> {
+        let table = self
+            .table
+            .read()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let (t, at) = table.as_ref()?;
+        (at.elapsed() < self.ttl).then(|| t.clone())
     }
 
     /// The principal of a token's text, `None` when no valid token matches.
@@ -303,32 +318,37 @@ impl TokenCache {
         token: &str,
     ) -> Result<Option<Principal>, ApiError> {
         let key = digest(token);
-        let now = Instant::now();
-        if let Some((hit, at)) = self.lock().get(&key)
-            && now.duration_since(*at) < self.ttl
-        {
-            return Ok(hit.clone().map(|(name, role)| Principal {
-                name,
-                role,
+        let principal = |t: &Table| {
+            t.get(&key).map(|(name, role)| Principal {
+                name: name.clone(),
+                role: *role,
                 token: true,
-            }));
+            })
+        };
+        if let Some(t) = self.fresh() {
+            return Ok(principal(&t));
         }
-        let found = store
-            .find_token(&key)
+        let _one = self.reload.lock().await;
+        if let Some(t) = self.fresh() {
+            return Ok(principal(&t));
+        }
+        // Timed from before the read: a token revoked after it is refused within `ttl`.
+        let at = Instant::now();
+        self.reads.fetch_add(1, Ordering::Relaxed);
+        let table: Table = store
+            .valid_tokens()
             .await?
-            .and_then(|(name, role)| Some((Arc::<str>::from(name), Role::parse(&role)?)));
-        {
-            let mut entries = self.lock();
-            if entries.len() >= CACHE_MAX {
-                entries.clear();
-            }
-            entries.insert(key, (found.clone(), now));
-        }
-        Ok(found.map(|(name, role)| Principal {
-            name,
-            role,
-            token: true,
-        }))
+            .into_iter()
+            .filter_map(|(digest, name, role)| {
+                Some((digest, (Arc::from(name), Role::parse(&role)?)))
+            })
+            .collect();
+        let answer = principal(&table);
+        *self
+            .table
+            .write()
+            .unwrap_or_else(std::sync::PoisonError::into_inner) = Some((Arc::new(table), at));
+        Ok(answer)
     }
 }
 
@@ -446,6 +466,83 @@ mod tests {
         assert_eq!(a(Method::POST, "/api/login"), Access::Open);
         assert_eq!(a(Method::POST, "/api/telemetry"), Access::Ingest);
         assert_eq!(a(Method::GET, "/api/missions/1"), Access::Read);
+    }
+
+    #[tokio::test]
+    async fn the_token_table_is_read_once_per_ttl_however_many_tokens_and_requests() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let url = format!("sqlite://{}", dir.path().join("t.sqlite").display());
+        let store = crate::store::Store::open(&url).await.expect("open");
+        let tokens: Vec<String> = (0..20).map(|_| new_token()).collect();
+        for (i, t) in tokens.iter().enumerate() {
+            let role = if i % 2 == 0 { "write" } else { "read" };
+            store
+                .create_token(&format!("gcs-{i}"), role, &digest(t), 0.0)
+                .await
+                .expect("create");
+        }
+        let cache = Arc::new(TokenCache::new(Duration::from_millis(300)));
+        // Every token twice and a made-up one, all at once, on a cold cache.
+        let mut asks: Vec<String> = tokens.iter().chain(&tokens).cloned().collect();
+        asks.push(new_token());
+        let tasks: Vec<_> = asks
+            .into_iter()
+            .map(|t| {
+                let (cache, store) = (cache.clone(), store.clone());
+                tokio::spawn(async move { cache.verify(&store, &t).await.expect("verify") })
+            })
+            .collect();
+        let mut got = Vec::new();
+        for t in tasks {
+            got.push(t.await.expect("task").map(|p| (p.name.to_string(), p.role)));
+        }
+        for (i, g) in got.iter().take(40).enumerate() {
+            let role = if i % 20 % 2 == 0 {
+                Role::Write
+            } else {
+                Role::Read
+            };
+            assert_eq!(g, &Some((format!("gcs-{}", i % 20), role)));
+        }
+        assert_eq!(got[40], None, "a made-up token");
+        assert_eq!(cache.reads(), 1, "41 requests, one read of the table");
+        // Revoked: still valid until the table is older than the ttl, then refused.
+        assert!(store.revoke_token("gcs-0", 1.0).await.expect("revoke"));
+        assert!(
+            cache
+                .verify(&store, &tokens[0])
+                .await
+                .expect("verify")
+                .is_some()
+        );
+        tokio::time::sleep(Duration::from_millis(350)).await;
+        assert!(
+            cache
+                .verify(&store, &tokens[0])
+                .await
+                .expect("verify")
+                .is_none()
+        );
+        assert!(
+            cache
+                .verify(&store, &tokens[1])
+                .await
+                .expect("verify")
+                .is_some()
+        );
+        assert_eq!(cache.reads(), 2);
+        // A ttl of zero reads the database for every request.
+        let every = TokenCache::new(Duration::ZERO);
+        for _ in 0..3 {
+            assert!(
+                every
+                    .verify(&store, &tokens[1])
+                    .await
+                    .expect("verify")
+                    .is_some()
+            );
+        }
+        assert_eq!(every.reads(), 3);
     }
 
     #[test]

@@ -33,16 +33,16 @@ use super::observations::{NewBatch, NewRows, StoredBatch};
 use super::writer::WriterThread;
 use super::{
     InsertCounts, ObservationRow, Store, TELEMETRY_COLUMNS, TELEMETRY_INSERT, TelemetryRow,
-    bind_telemetry, values_sql,
+    bind_telemetry, values_sql_anonymous,
 };
 use crate::time::to_us;
 
 /// Most requests stored in one transaction.
 pub const MAX_GROUP: usize = 64;
 
-/// Telemetry rows per insert statement (9 parameters each; see the observations' chunk for
-/// why statements stay small).
-const TELEMETRY_CHUNK_ROWS: usize = 32;
+/// Telemetry rows per insert statement (9 parameters each, anonymous placeholders: see
+/// [`super::observations::SQLITE_INSERT_CHUNK_ROWS`]).
+const TELEMETRY_CHUNK_ROWS: usize = super::observations::SQLITE_INSERT_CHUNK_ROWS;
 
 type Reply<T> = oneshot::Sender<Result<T, sqlx::Error>>;
 
@@ -351,7 +351,7 @@ async fn telemetry_in(
         TELEMETRY_INSERT.trim_end_matches("VALUES ")
     );
     for chunk in rows.chunks(TELEMETRY_CHUNK_ROWS) {
-        let sql = values_sql(
+        let sql = values_sql_anonymous(
             &head,
             TELEMETRY_COLUMNS,
             chunk.len(),
@@ -651,7 +651,8 @@ mod tests {
             let (reply, _) = oneshot::channel();
             TelemetryJob::new("m", &vec![sample(0.0, 38.0); n], 0.0, "local", reply)
         };
-        let sizes = [1, 1, 40, 30, 5, 32, 0, 1];
+        let c = TELEMETRY_CHUNK_ROWS;
+        let sizes = [1, 1, c + 8, c - 2, 5, c, 0, 1];
         let jobs: Vec<TelemetryJob> = sizes.iter().map(|&n| job(n)).collect();
         assert_eq!(
             post_runs(&jobs),
@@ -663,7 +664,7 @@ mod tests {
                 (5..7, true),
                 (7..8, true)
             ],
-            "30 + 5 and 32 + 0 + 1 are more than one statement's 32 rows"
+            "(c - 2) + 5 and c + 0 + 1 are more than one statement's c rows"
         );
         for (r, one) in post_runs(&jobs) {
             if one {

@@ -544,6 +544,24 @@ pub(crate) fn values_sql(head: &str, cols: usize, rows: usize, tail: &str) -> St
     s
 }
 
+/// As [`values_sql`] with anonymous `?` placeholders, for SQLite: sqlx binds a numbered
+/// `$n` by looking its name up in the statement's parameter list (linear in the
+/// parameters, so binding a statement costs their square), an anonymous one by position.
+/// Values are bound in the same row-major order.
+pub(crate) fn values_sql_anonymous(head: &str, cols: usize, rows: usize, tail: &str) -> String {
+    let row = format!("({})", vec!["?"; cols].join(","));
+    let mut s = String::with_capacity(head.len() + rows * (row.len() + 1) + tail.len());
+    s.push_str(head);
+    for r in 0..rows {
+        if r > 0 {
+            s.push(',');
+        }
+        s.push_str(&row);
+    }
+    s.push_str(tail);
+    s
+}
+
 /// Whether `e` is the database refusing a write for a constraint of `kind` (a name or
 /// revision already taken, a missing parent row): the callers' typed errors.
 fn violates(e: &sqlx::Error, kind: sqlx::error::ErrorKind) -> bool {
@@ -559,6 +577,10 @@ mod tests {
         assert_eq!(
             values_sql("INSERT INTO t VALUES ", 2, 2, ";"),
             "INSERT INTO t VALUES ($1,$2),($3,$4);"
+        );
+        assert_eq!(
+            values_sql_anonymous("INSERT INTO t VALUES ", 2, 3, ";"),
+            "INSERT INTO t VALUES (?,?),(?,?),(?,?);"
         );
     }
 }

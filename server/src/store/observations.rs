@@ -16,7 +16,9 @@ use std::collections::HashMap;
 
 use sqlx::{AssertSqlSafe, Row};
 
-use super::{Backend, InsertCounts, ObservationRow, Store, observation_row, values_sql};
+use super::{
+    Backend, InsertCounts, ObservationRow, Store, observation_row, values_sql, values_sql_anonymous,
+};
 use crate::time::to_us;
 
 /// PostgreSQL notification channel announcing committed observation batches; the payload
@@ -44,11 +46,15 @@ pub fn sort_feeding_order(rows: &mut [ObservationRow]) {
     });
 }
 
-/// Rows per insert statement. sqlx binds each `$n` by looking its name up in SQLite's
-/// parameter list (linear), so a statement's binding cost grows with the square of its
-/// parameters: a group of 32 batches of 10 rows in one statement (2,880 parameters) spent
-/// more time binding than storing.
+/// Rows per insert statement on PostgreSQL.
 const INSERT_CHUNK_ROWS: usize = 32;
+
+/// Rows per insert statement on SQLite, whose statements take anonymous placeholders
+/// ([`super::values_sql_anonymous`]): with numbered ones sqlx looks each name up in
+/// SQLite's parameter list (linear), so binding cost the square of the parameters (a group
+/// of 32 batches of 10 rows in one statement spent more time binding than storing) and
+/// statements were kept to 32 rows, each a round trip to the connection's thread.
+pub(super) const SQLITE_INSERT_CHUNK_ROWS: usize = 256;
 
 /// One request's rows to store: an observation batch ([`Store::commit_batches`]) or a
 /// telemetry post (`Store::commit_group`).
@@ -187,8 +193,14 @@ impl Store {
             })
             .collect();
         let mut stored: Vec<Vec<ObservationRow>> = vec![Vec::new(); batches.len()];
-        for chunk in rows.chunks(INSERT_CHUNK_ROWS) {
-            let sql = values_sql(
+        let (chunk_rows, values): (usize, fn(&str, usize, usize, &str) -> String) =
+            if self.backend == Backend::Sqlite {
+                (SQLITE_INSERT_CHUNK_ROWS, values_sql_anonymous)
+            } else {
+                (INSERT_CHUNK_ROWS, values_sql)
+            };
+        for chunk in rows.chunks(chunk_rows) {
+            let sql = values(
                 "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq, written_by) VALUES ",
                 10,
                 chunk.len(),

@@ -100,18 +100,17 @@ impl Store {
         Ok(r.rows_affected() > 0)
     }
 
-    /// The name and role of the valid (not revoked) token whose digest is `digest`.
+    /// Every valid (not revoked) token: digest, name and role.
     ///
     /// # Errors
     /// Database failures.
-    pub async fn find_token(&self, digest: &str) -> Result<Option<(String, String)>, sqlx::Error> {
-        let row = sqlx::query(
-            "SELECT name, role FROM tokens WHERE digest = $1 AND revoked_at_us IS NULL",
-        )
-        .bind(digest.to_string())
-        .fetch_optional(&self.read)
-        .await?;
-        row.map(|r| Ok((r.try_get(0)?, r.try_get(1)?))).transpose()
+    pub async fn valid_tokens(&self) -> Result<Vec<(String, String, String)>, sqlx::Error> {
+        sqlx::query("SELECT digest, name, role FROM tokens WHERE revoked_at_us IS NULL")
+            .fetch_all(&self.read)
+            .await?
+            .iter()
+            .map(|r| Ok((r.try_get(0)?, r.try_get(1)?, r.try_get(2)?)))
+            .collect()
     }
 
     /// How many valid tokens exist.
