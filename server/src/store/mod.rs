@@ -544,6 +544,9 @@ pub(crate) fn values_sql(head: &str, cols: usize, rows: usize, tail: &str) -> St
     s
 }
 
+/// [`values_sql`] or [`values_sql_anonymous`].
+pub(crate) type ValuesSql = fn(&str, usize, usize, &str) -> String;
+
 /// As [`values_sql`] with anonymous `?` placeholders, for SQLite: sqlx binds a numbered
 /// `$n` by looking its name up in the statement's parameter list (linear in the
 /// parameters, so binding a statement costs their square), an anonymous one by position.

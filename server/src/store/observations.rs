@@ -17,7 +17,8 @@ use std::collections::HashMap;
 use sqlx::{AssertSqlSafe, Row};
 
 use super::{
-    Backend, InsertCounts, ObservationRow, Store, observation_row, values_sql, values_sql_anonymous,
+    Backend, InsertCounts, ObservationRow, Store, ValuesSql, observation_row, values_sql,
+    values_sql_anonymous,
 };
 use crate::time::to_us;
 
@@ -193,12 +194,11 @@ impl Store {
             })
             .collect();
         let mut stored: Vec<Vec<ObservationRow>> = vec![Vec::new(); batches.len()];
-        let (chunk_rows, values): (usize, fn(&str, usize, usize, &str) -> String) =
-            if self.backend == Backend::Sqlite {
-                (SQLITE_INSERT_CHUNK_ROWS, values_sql_anonymous)
-            } else {
-                (INSERT_CHUNK_ROWS, values_sql)
-            };
+        let (chunk_rows, values): (usize, ValuesSql) = if self.backend == Backend::Sqlite {
+            (SQLITE_INSERT_CHUNK_ROWS, values_sql_anonymous)
+        } else {
+            (INSERT_CHUNK_ROWS, values_sql)
+        };
         for chunk in rows.chunks(chunk_rows) {
             let sql = values(
                 "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq, written_by) VALUES ",
