@@ -4,14 +4,15 @@
 //! anyway; each paid its own statements, `BEGIN` and `COMMIT`, and every statement is a
 //! round trip to the connection's thread (under load, a wait for a core each way). Here
 //! one task owns the queue: it takes every write waiting (up to [`MAX_GROUP`]) and stores
-//! them in one transaction ([`Store::commit_group`]): one counter bump and one multi-row
-//! insert per mission for the observation batches, one multi-row insert for all the
-//! telemetry posts, then answers each request. Telemetry posts that come without batches
-//! need no transaction: they are stored with one statement per [`TELEMETRY_CHUNK_ROWS`]
-//! rows, never splitting a post ([`Store::commit_posts`]), one round trip instead of
-//! `BEGIN`, a lookup of the missions, the insert and `COMMIT`. A lone write goes at once (no waiting for
-//! company), so a quiet mission's latency is a single transaction as before. The task runs
-//! on the database writer's runtime ([`super::writer`]).
+//! them in one transaction ([`Store::commit_group`]): one statement bumps the batch
+//! counters of all the group's missions, one multi-row insert stores all their
+//! observations and one all the telemetry posts' samples (up to 256 rows a statement),
+//! then each request is answered. Telemetry posts that come without batches need no
+//! transaction: they are stored with one statement per [`TELEMETRY_CHUNK_ROWS`] rows,
+//! never splitting a post ([`Store::commit_posts`]): one round trip instead of `BEGIN`, a
+//! lookup of the missions, the insert and `COMMIT`. A lone write goes at once (no waiting
+//! for company), so a quiet mission's latency is a single transaction as before. The task
+//! runs on the database writer's runtime ([`super::writer`]).
 //!
 //! Contracts kept from one transaction per request:
 //! - each batch or telemetry post is all or none, and is acknowledged only after its
