@@ -468,6 +468,10 @@ mod tests {
         assert_eq!(a(Method::GET, "/api/missions/1"), Access::Read);
     }
 
+    async fn valid(cache: &TokenCache, store: &crate::store::Store, token: &str) -> bool {
+        cache.verify(store, token).await.expect("verify").is_some()
+    }
+
     #[tokio::test]
     async fn the_token_table_is_read_once_per_ttl_however_many_tokens_and_requests() {
         let dir = tempfile::tempdir().expect("tempdir");
@@ -508,39 +512,15 @@ mod tests {
         assert_eq!(cache.reads(), 1, "41 requests, one read of the table");
         // Revoked: still valid until the table is older than the ttl, then refused.
         assert!(store.revoke_token("gcs-0", 1.0).await.expect("revoke"));
-        assert!(
-            cache
-                .verify(&store, &tokens[0])
-                .await
-                .expect("verify")
-                .is_some()
-        );
+        assert!(valid(&cache, &store, &tokens[0]).await);
         tokio::time::sleep(Duration::from_millis(350)).await;
-        assert!(
-            cache
-                .verify(&store, &tokens[0])
-                .await
-                .expect("verify")
-                .is_none()
-        );
-        assert!(
-            cache
-                .verify(&store, &tokens[1])
-                .await
-                .expect("verify")
-                .is_some()
-        );
+        assert!(!valid(&cache, &store, &tokens[0]).await);
+        assert!(valid(&cache, &store, &tokens[1]).await);
         assert_eq!(cache.reads(), 2);
         // A ttl of zero reads the database for every request.
         let every = TokenCache::new(Duration::ZERO);
         for _ in 0..3 {
-            assert!(
-                every
-                    .verify(&store, &tokens[1])
-                    .await
-                    .expect("verify")
-                    .is_some()
-            );
+            assert!(valid(&every, &store, &tokens[1]).await);
         }
         assert_eq!(every.reads(), 3);
     }

@@ -504,6 +504,23 @@ mod tests {
         }
     }
 
+    /// A telemetry post of the writer "gcs".
+    fn post<'a>(mission_id: &'a str, rows: &'a [TelemetryRow]) -> NewTelemetry<'a> {
+        NewTelemetry {
+            mission_id,
+            rows,
+            received_at_s: 10.0,
+            writer: "gcs",
+        }
+    }
+
+    fn counts(accepted: u64, duplicate: u64) -> Option<InsertCounts> {
+        Some(InsertCounts {
+            accepted,
+            duplicate,
+        })
+    }
+
     #[tokio::test]
     async fn telemetry_posts_of_one_group_count_their_own_new_samples_next_to_batches() {
         let dir = tempfile::tempdir().expect("tempdir");
@@ -518,12 +535,6 @@ mod tests {
         let a = [sample(1.0, 38.1), sample(2.0, 38.1), sample(3.0, 38.1)];
         let b = [sample(3.0, 38.2), sample(4.0, 38.2), sample(4.0, 38.3)];
         let c = [sample(5.0, 38.4)];
-        let post = |mission_id, rows| NewTelemetry {
-            mission_id,
-            rows,
-            received_at_s: 10.0,
-            writer: "gcs",
-        };
         let obs = [row("0", 1.0, 38.1)];
         let batch = NewBatch {
             mission_id: "webster",
@@ -544,12 +555,6 @@ mod tests {
             .await
             .expect("commit");
         assert_eq!(stored[0].as_ref().expect("batch").counts.accepted, 1);
-        let counts = |accepted, duplicate| {
-            Some(InsertCounts {
-                accepted,
-                duplicate,
-            })
-        };
         assert_eq!(
             counted,
             [counts(2, 1), None, counts(1, 2), counts(0, 0)],
@@ -585,12 +590,6 @@ mod tests {
         let a = [sample(1.0, 38.1), sample(2.0, 38.1)];
         let b = [sample(2.0, 38.2), sample(3.0, 38.2), sample(3.0, 38.3)];
         let old = [sample(1.0, 38.5)];
-        let post = |mission_id, rows| NewTelemetry {
-            mission_id,
-            rows,
-            received_at_s: 10.0,
-            writer: "gcs",
-        };
         let counted = store
             .commit_posts(&[
                 post("webster", &a),
@@ -602,12 +601,6 @@ mod tests {
             ])
             .await
             .expect("commit");
-        let counts = |accepted, duplicate| {
-            Some(InsertCounts {
-                accepted,
-                duplicate,
-            })
-        };
         assert_eq!(
             counted,
             [
