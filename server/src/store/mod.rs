@@ -525,19 +525,34 @@ fn decode_mission(body: &str) -> Result<Mission, sqlx::Error> {
 /// `INSERT ... VALUES ($1,..,$k), ($k+1,..) <tail>` for `rows` rows of `cols` columns.
 /// Only placeholders are generated: no value is ever spliced into the SQL.
 pub(crate) fn values_sql(head: &str, cols: usize, rows: usize, tail: &str) -> String {
-    let mut s = String::with_capacity(head.len() + rows * cols * 5 + tail.len());
+    use std::fmt::Write as _;
+    values_rows(head, rows * cols * 5, rows, tail, |s, r| {
+        for c in 0..cols {
+            if c > 0 {
+                s.push(',');
+            }
+            let _ = write!(s, "${}", r * cols + c + 1);
+        }
+    })
+}
+
+/// `head`, then `rows` parenthesised rows separated by commas, each written by `row`
+/// (given its index), then `tail`.
+fn values_rows(
+    head: &str,
+    size_hint: usize,
+    rows: usize,
+    tail: &str,
+    mut row: impl FnMut(&mut String, usize),
+) -> String {
+    let mut s = String::with_capacity(head.len() + size_hint + 3 * rows + tail.len());
     s.push_str(head);
     for r in 0..rows {
         if r > 0 {
             s.push(',');
         }
         s.push('(');
-        for c in 0..cols {
-            if c > 0 {
-                s.push(',');
-            }
-            s.push_str(&format!("${}", r * cols + c + 1));
-        }
+        row(&mut s, r);
         s.push(')');
     }
     s.push_str(tail);
@@ -552,17 +567,8 @@ pub(crate) type ValuesSql = fn(&str, usize, usize, &str) -> String;
 /// parameters, so binding a statement costs their square), an anonymous one by position.
 /// Values are bound in the same row-major order.
 pub(crate) fn values_sql_anonymous(head: &str, cols: usize, rows: usize, tail: &str) -> String {
-    let row = format!("({})", vec!["?"; cols].join(","));
-    let mut s = String::with_capacity(head.len() + rows * (row.len() + 1) + tail.len());
-    s.push_str(head);
-    for r in 0..rows {
-        if r > 0 {
-            s.push(',');
-        }
-        s.push_str(&row);
-    }
-    s.push_str(tail);
-    s
+    let row = vec!["?"; cols].join(",");
+    values_rows(head, rows * row.len(), rows, tail, |s, _| s.push_str(&row))
 }
 
 /// Whether `e` is the database refusing a write for a constraint of `kind` (a name or
