@@ -11,6 +11,7 @@ pub mod openapi;
 pub mod plan;
 pub mod reactive;
 pub mod serve;
+pub mod sim_service;
 pub mod simulate;
 pub mod token;
 

@@ -45,8 +45,9 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 0)]
     pub first_seed: u64,
 
-    /// Strategies, comma-separated (default: all): none, insertion, tangent, cv, mc-nofly,
-    /// mc-random, mc-advanced, mc-memory, mc-auto, offset, sectors.
+    /// Strategies, comma-separated (default: all but `server`): none, insertion, tangent, cv,
+    /// mc-nofly, mc-random, mc-advanced, mc-memory, mc-auto, offset, sectors, oracle, and
+    /// `server` (`mc-auto` asked of an in-process `jink serve` over HTTP).
     #[arg(long, value_delimiter = ',')]
     pub strategies: Option<Vec<String>>,
 
@@ -137,6 +138,18 @@ pub fn run(args: SimulateArgs) -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
+    // The `server` strategy flies against the real service, started here for the runs.
+    let service = if strategies.contains(&StrategyKind::Server) {
+        match super::sim_service::start() {
+            Ok(s) => Some(s),
+            Err(e) => {
+                eprintln!("jink simulate: {e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    } else {
+        None
+    };
     if let Some(n) = args.threads {
         // the global pool can only be built once per process: fine for a CLI
         let _ = rayon::ThreadPoolBuilder::new()
@@ -183,6 +196,13 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         report.wall_s,
         report.threads
     );
+    if let Some(s) = &service {
+        println!(
+            "  server: every run flew against the service at {} over HTTP; {} requests failed",
+            s.base(),
+            s.failures()
+        );
+    }
     for k in &cfg.strategies {
         if let Some(tp) = report.throughput(*k) {
             println!(
@@ -213,6 +233,12 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         }
     }
     println!("wrote {}", args.out.display());
+    if service.as_ref().is_some_and(|s| s.failures() > 0) {
+        eprintln!(
+            "jink simulate: requests to the service failed (above): the `server` rows are not the service's own flights"
+        );
+        return ExitCode::from(3);
+    }
     ExitCode::SUCCESS
 }
 

@@ -12,5 +12,6 @@ mod plans;
 mod predictor;
 mod reactive;
 mod service;
+mod simulate;
 mod telemetry;
 mod walkthrough;

@@ -116,6 +116,38 @@ pub enum StrategyKind {
     ReactiveSectors,
     /// Monte Carlo bisection against the spheres' true future: the ceiling.
     Oracle,
+    /// `mc-auto` asked of a running `jink serve` over HTTP: the mission uploaded, the
+    /// obstacle and aircraft telemetry posted as a ground station would, each plan asked
+    /// with `POST .../plan` and flown as answered. Built by the factory a program
+    /// registers with [`register_server`] (`jink simulate` does; this crate cannot start
+    /// the service itself). Not in [`StrategyKind::ALL`]: asked for by name only.
+    Server,
+}
+
+/// Builds the [`StrategyKind::Server`] strategy for one run from the run's seed.
+pub type ServerFactory = Box<dyn Fn(u64) -> Box<dyn Strategy> + Send + Sync>;
+
+static SERVER: std::sync::OnceLock<ServerFactory> = std::sync::OnceLock::new();
+
+/// Registers how [`StrategyKind::Server`] is built (once per process).
+///
+/// # Errors
+/// The factory given back when one is registered already.
+pub fn register_server(factory: ServerFactory) -> Result<(), ServerFactory> {
+    SERVER.set(factory)
+}
+
+/// Stands in for a `server` run no program registered: it cannot plan, so it says so.
+#[derive(Debug, Clone, Copy)]
+struct Unregistered;
+
+impl Strategy for Unregistered {
+    fn period_s(&self) -> f64 {
+        1e9
+    }
+    fn decide(&mut self, _view: &View<'_>) -> Command {
+        panic!("the `server` strategy needs a running service: run it with `jink simulate`")
+    }
 }
 
 impl StrategyKind {
@@ -150,12 +182,16 @@ impl StrategyKind {
             Self::ReactiveOffset => "offset",
             Self::ReactiveSectors => "sectors",
             Self::Oracle => "oracle",
+            Self::Server => "server",
         }
     }
 
     /// Parses a command-line name.
     pub fn parse(s: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|k| k.name() == s)
+        Self::ALL
+            .into_iter()
+            .chain([Self::Server])
+            .find(|k| k.name() == s)
     }
 
     /// Builds a fresh instance for one run; `seed` feeds every random choice it makes.
@@ -176,6 +212,9 @@ impl StrategyKind {
                 reactive::Onboard::new(reactive::Sectors::default()),
             )),
             Self::Oracle => Box::new(oracle::Oracle::new(seed)),
+            Self::Server => SERVER
+                .get()
+                .map_or_else(|| Box::new(Unregistered) as Box<dyn Strategy>, |f| f(seed)),
         }
     }
 }
