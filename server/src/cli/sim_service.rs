@@ -15,6 +15,8 @@
 //!   the aircraft's own state as native telemetry, then asks for a plan with `base_revision`
 //!   (the revision it flies), `current_index`, the aircraft's speed and turn radius and a
 //!   seed derived from the run seed and the call count, and flies the answer.
+//! - `server-bare` tells the service the least a client can: its telemetry carries no speed
+//!   (the interop telemetry forms have none) and its plan requests no `aircraft`.
 //!
 //! The simulated clock stops while a request is answered, as it does for `mc-auto`, so the
 //! plan the aircraft flies is the one computed for the moment it was asked.
@@ -100,8 +102,9 @@ pub fn start() -> Result<Service, String> {
         .map_err(|e| e.to_string())?;
     let failures = Arc::new(AtomicU64::new(0));
     let (handle, b, f) = (rt.handle().clone(), base.clone(), failures.clone());
-    sim::strategy::register_server(Box::new(move |seed| {
+    sim::strategy::register_server(Box::new(move |kind, seed| {
         Box::new(HttpPlanner {
+            bare: kind == sim::strategy::StrategyKind::ServerBare,
             handle: handle.clone(),
             client: client.clone(),
             base: b.clone(),
@@ -131,6 +134,8 @@ struct HttpPlanner {
     base: String,
     failures: Arc<AtomicU64>,
     seed: u64,
+    /// Telemetry without a speed, plan requests without `aircraft` (`server-bare`).
+    bare: bool,
     frame: LocalFrame,
     mission_id: Option<String>,
     revision: i64,
@@ -222,23 +227,31 @@ impl HttpPlanner {
         let s = view.own;
         let (lat, lon) = self.frame.to_geodetic([s.p_m[0], s.p_m[1]]);
         let heading = (90.0 - s.heading_rad.to_degrees()).rem_euclid(360.0);
-        self.post(
-            &format!("/api/v1/missions/{id}/telemetry"),
-            &json!({"t": T0_S + view.t_s, "lat": lat, "lon": lon, "alt_msl_m": s.p_m[2],
-                "heading_deg": heading, "speed_mps": s.speed_mps}),
-        )
-        .await?;
+        let mut tel = json!({"t": T0_S + view.t_s, "lat": lat, "lon": lon, "alt_msl_m": s.p_m[2],
+                "heading_deg": heading, "speed_mps": s.speed_mps});
+        if self.bare
+            && let Some(o) = tel.as_object_mut()
+        {
+            o.remove("speed_mps");
+        }
+        self.post(&format!("/api/v1/missions/{id}/telemetry"), &tel)
+            .await?;
         Ok(())
     }
 
     async fn plan(&mut self, id: &str, view: &View<'_>) -> Result<Stack, String> {
         let a = view.aircraft.planner_aircraft();
-        let body = json!({
+        let mut body = json!({
             "seed": planner::plan::leg_seed(self.seed, self.calls as usize, 0),
             "base_revision": self.revision,
             "current_index": view.stack.current,
             "aircraft": {"speed_mps": a.speed_mps, "turn_radius_m": a.turn_radius_m},
         });
+        if self.bare
+            && let Some(o) = body.as_object_mut()
+        {
+            o.remove("aircraft");
+        }
         let answer = self
             .post(&format!("/api/v1/missions/{id}/plan"), &body)
             .await?;

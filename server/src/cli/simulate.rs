@@ -47,7 +47,8 @@ pub struct SimulateArgs {
 
     /// Strategies, comma-separated (default: all but `server`): none, insertion, tangent, cv,
     /// mc-nofly, mc-random, mc-advanced, mc-memory, mc-auto, offset, sectors, oracle, and
-    /// `server` (`mc-auto` asked of an in-process `jink serve` over HTTP).
+    /// `server` (`mc-auto` asked of an in-process `jink serve` over HTTP) and `server-bare`
+    /// (the same client sending no speed and no aircraft parameters).
     #[arg(long, value_delimiter = ',')]
     pub strategies: Option<Vec<String>>,
 
@@ -79,6 +80,15 @@ pub struct SimulateArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+
+    /// Speed of the simulated aircraft, m/s (constant; its turn radius follows from
+    /// `--max-bank-deg`: 58 m at the defaults).
+    #[arg(long, default_value_t = 20.0)]
+    pub aircraft_speed: f64,
+
+    /// Largest bank of the simulated aircraft, degrees.
+    #[arg(long, default_value_t = 35.0)]
+    pub max_bank_deg: f64,
 
     /// Also write the prediction report (stages vs constant velocity per behaviour) over
     /// this many seeds per behaviour (0 = skip).
@@ -139,7 +149,10 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         }
     };
     // The `server` strategy flies against the real service, started here for the runs.
-    let service = if strategies.contains(&StrategyKind::Server) {
+    let service = if strategies
+        .iter()
+        .any(|k| matches!(k, StrategyKind::Server | StrategyKind::ServerBare))
+    {
         match super::sim_service::start() {
             Ok(s) => Some(s),
             Err(e) => {
@@ -156,13 +169,31 @@ pub fn run(args: SimulateArgs) -> ExitCode {
             .num_threads(n)
             .build_global();
     }
-    let cfg = SuiteConfig {
+    if !(args.aircraft_speed.is_finite()
+        && args.aircraft_speed >= 5.0
+        && args.aircraft_speed <= 100.0)
+    {
+        eprintln!("jink simulate: --aircraft-speed must be in [5, 100] m/s");
+        return ExitCode::FAILURE;
+    }
+    if !(args.max_bank_deg.is_finite() && args.max_bank_deg >= 10.0 && args.max_bank_deg <= 70.0) {
+        eprintln!("jink simulate: --max-bank-deg must be in [10, 70] degrees");
+        return ExitCode::FAILURE;
+    }
+    let mut cfg = SuiteConfig {
         families,
         seeds: (args.first_seed..args.first_seed + args.seeds).collect(),
         strategies,
         plot_seeds: plot_seeds(&args),
         ..SuiteConfig::default()
     };
+    cfg.run.aircraft = cfg
+        .run
+        .aircraft
+        .speed_mps(args.aircraft_speed)
+        .max_bank_deg(args.max_bank_deg);
+    cfg.scenario.aircraft_speed_mps = args.aircraft_speed;
+    let cfg = cfg;
     let make = |family: Family, seed: u64| -> Scenario {
         match &mission {
             Some((m, start_m)) => with_moving_spheres(

@@ -58,7 +58,10 @@ fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
         "waypoints_captured",
         "completed",
     ] {
-        assert_eq!(served[k], local[k], "{k}: server {served} against mc-auto {local}");
+        assert_eq!(
+            served[k], local[k],
+            "{k}: server {served} against mc-auto {local}"
+        );
     }
     // The same flight up to rounding: positions go through latitude and longitude, times
     // through the store's microseconds, and a time that falls on a 1 s slice boundary on

@@ -122,14 +122,20 @@ pub enum StrategyKind {
     /// registers with [`register_server`] (`jink simulate` does; this crate cannot start
     /// the service itself). Not in [`StrategyKind::ALL`]: asked for by name only.
     Server,
+    /// [`StrategyKind::Server`] as a client that tells the service the least: aircraft
+    /// telemetry without a speed (as the interop telemetry forms send it) and plan requests
+    /// without `aircraft` (the service's defaults: 20 m/s, 40 m turn radius).
+    ServerBare,
 }
 
-/// Builds the [`StrategyKind::Server`] strategy for one run from the run's seed.
-pub type ServerFactory = Box<dyn Fn(u64) -> Box<dyn Strategy> + Send + Sync>;
+/// Builds the [`StrategyKind::Server`] or [`StrategyKind::ServerBare`] strategy for one
+/// run from the run's seed.
+pub type ServerFactory = Box<dyn Fn(StrategyKind, u64) -> Box<dyn Strategy> + Send + Sync>;
 
 static SERVER: std::sync::OnceLock<ServerFactory> = std::sync::OnceLock::new();
 
-/// Registers how [`StrategyKind::Server`] is built (once per process).
+/// Registers how [`StrategyKind::Server`] and [`StrategyKind::ServerBare`] are built (once
+/// per process).
 ///
 /// # Errors
 /// The factory given back when one is registered already.
@@ -183,6 +189,7 @@ impl StrategyKind {
             Self::ReactiveSectors => "sectors",
             Self::Oracle => "oracle",
             Self::Server => "server",
+            Self::ServerBare => "server-bare",
         }
     }
 
@@ -190,7 +197,7 @@ impl StrategyKind {
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL
             .into_iter()
-            .chain([Self::Server])
+            .chain([Self::Server, Self::ServerBare])
             .find(|k| k.name() == s)
     }
 
@@ -212,9 +219,10 @@ impl StrategyKind {
                 reactive::Onboard::new(reactive::Sectors::default()),
             )),
             Self::Oracle => Box::new(oracle::Oracle::new(seed)),
-            Self::Server => SERVER
-                .get()
-                .map_or_else(|| Box::new(Unregistered) as Box<dyn Strategy>, |f| f(seed)),
+            Self::Server | Self::ServerBare => SERVER.get().map_or_else(
+                || Box::new(Unregistered) as Box<dyn Strategy>,
+                |f| f(self, seed),
+            ),
         }
     }
 }
