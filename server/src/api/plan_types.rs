@@ -69,7 +69,9 @@ pub struct StartOut {
     pub alt_msl_m: f64,
     /// Heading, degrees true.
     pub heading_deg: f64,
-    /// Ground speed, m/s (0 = unknown).
+    /// Ground speed, m/s: the newest telemetry's own, or when it reported none (the
+    /// interop telemetry forms carry none), the ground speed from the newest sample 0.5-2 s
+    /// before it; 0 = unknown (the route is then timed at the request's cruise speed).
     pub speed_mps: f64,
 }
 

@@ -60,12 +60,53 @@ impl From<StrategyIn> for planner::Strategy {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, ToSchema)]
 #[serde(deny_unknown_fields)]
 pub struct AircraftIn {
-    /// Cruise speed, m/s (default 20; telemetry speed wins when reported), at most 200.
+    /// Cruise speed, m/s (default 20; the telemetry's ground speed wins when reported or
+    /// when it can be estimated from the last 2 s of telemetry), at most 200.
     #[schema(exclusive_minimum = 0, maximum = 200)]
     pub speed_mps: Option<f64>,
     /// Minimum turn radius, metres (default 40), at most 10 000.
     #[schema(minimum = 0, maximum = 10000)]
     pub turn_radius_m: Option<f64>,
+}
+
+/// Newest telemetry samples a plan reads: the newest is its start, the others give its
+/// ground speed when the newest does not report one ([`with_track_speed`]).
+const TRACK_SAMPLES: u32 = 32;
+
+/// A ground speed is estimated over the newest samples spanning at least this long, seconds...
+const TRACK_MIN_S: f64 = 0.5;
+/// ... and at most this long (the oldest sample within it is used).
+const TRACK_MAX_S: f64 = 2.0;
+
+/// `newest` with a ground speed: its own when reported, else the distance from the oldest
+/// of `track` (the newest samples, in time order) between [`TRACK_MIN_S`] and
+/// [`TRACK_MAX_S`] before it, over the time between. The interop telemetry forms carry no
+/// speed; without this a plan would time the route at the request's cruise speed (20 m/s
+/// by default) whatever the aircraft flies. In a turn the chord is shorter than the arc
+/// flown, so the estimate is low there. No estimate when no sample is in range: the
+/// request's cruise speed is used.
+pub(crate) fn with_track_speed(
+    newest: &crate::store::TelemetryRow,
+    track: &[crate::store::TelemetryRow],
+    frame: &wire::geodesy::LocalFrame,
+) -> crate::store::TelemetryRow {
+    let mut at = newest.clone();
+    if at.speed_mps.is_some() {
+        return at;
+    }
+    let from = track.iter().find(|r| {
+        let dt = newest.t_s - r.t_s;
+        (TRACK_MIN_S..=TRACK_MAX_S).contains(&dt)
+    });
+    if let Some(r) = from {
+        let a = frame.to_enu(r.lat_deg, r.lon_deg);
+        let b = frame.to_enu(newest.lat_deg, newest.lon_deg);
+        let v = (b[0] - a[0]).hypot(b[1] - a[1]) / (newest.t_s - r.t_s);
+        if v.is_finite() && v > 0.0 && v <= wire::telemetry::MAX_SPEED_MPS {
+            at.speed_mps = Some(v);
+        }
+    }
+    at
 }
 
 /// The largest turn radius a plan accepts, metres.
@@ -137,7 +178,7 @@ async fn create_plan(
     let (mission, latest, telemetry) = tokio::join!(
         super::missions::load(&state, &id),
         state.store.latest_plan_revision(&id),
-        state.store.list_telemetry(&id, Some(1)),
+        state.store.list_telemetry(&id, Some(TRACK_SAMPLES)),
     );
     let (mission, latest, telemetry) = (mission?, latest?, telemetry?);
     timing.lap("read");
@@ -220,7 +261,7 @@ async fn create_plan(
     let start = match telemetry.last() {
         Some(t) => Start {
             from_telemetry: true,
-            at: t.clone(),
+            at: with_track_speed(t, &telemetry, &mission.frame()),
         },
         None => stack_start(&mission, &stack, current_index, now),
     };
@@ -411,4 +452,52 @@ fn next_fixed(stack: &[GeoItem], mission_len: usize, current_index: usize) -> Op
         .iter()
         .position(|g| g.kind != planner::ItemKind::Avoid)
         .map(|k| current_index + k)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::TelemetryRow;
+
+    fn sample(t_s: f64, east_m: f64, speed_mps: Option<f64>) -> TelemetryRow {
+        let frame = wire::geodesy::LocalFrame::new(38.0, -76.0);
+        let (lat_deg, lon_deg) = frame.to_geodetic([east_m, 0.0]);
+        TelemetryRow {
+            t_s,
+            lat_deg,
+            lon_deg,
+            alt_msl_m: 100.0,
+            heading_deg: 90.0,
+            speed_mps,
+        }
+    }
+
+    #[test]
+    fn a_start_without_a_reported_speed_takes_the_ground_speed_of_the_last_two_seconds() {
+        let frame = wire::geodesy::LocalFrame::new(38.0, -76.0);
+        // 5 Hz, 16 m/s east, no speed reported (the interop forms): the sample 2 s back.
+        let track: Vec<TelemetryRow> = (0..20)
+            .map(|k| sample(100.0 + 0.2 * f64::from(k), 3.2 * f64::from(k), None))
+            .collect();
+        let at = with_track_speed(track.last().unwrap(), &track, &frame);
+        let v = at.speed_mps.expect("estimated");
+        assert!((v - 16.0).abs() < 1e-6, "{v}");
+        assert_eq!(at.t_s, track.last().unwrap().t_s);
+        assert_eq!(at.lat_deg, track.last().unwrap().lat_deg);
+
+        // A reported speed is kept as it is.
+        let mut reported = track.clone();
+        reported.last_mut().unwrap().speed_mps = Some(18.0);
+        let at = with_track_speed(reported.last().unwrap(), &reported, &frame);
+        assert_eq!(at.speed_mps, Some(18.0));
+
+        // Nothing 0.5-2 s back (a lone sample, or one 3 s old): no estimate.
+        let lone = [sample(100.0, 0.0, None)];
+        assert_eq!(with_track_speed(&lone[0], &lone, &frame).speed_mps, None);
+        let gap = [sample(100.0, 0.0, None), sample(103.0, 48.0, None)];
+        assert_eq!(with_track_speed(&gap[1], &gap, &frame).speed_mps, None);
+        // Two samples at the same place: 0 m/s is no speed to time a route by.
+        let still = [sample(100.0, 5.0, None), sample(101.0, 5.0, None)];
+        assert_eq!(with_track_speed(&still[1], &still, &frame).speed_mps, None);
+    }
 }

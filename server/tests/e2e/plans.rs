@@ -5,7 +5,7 @@
 use serde_json::{Value, json};
 
 use crate::both_stores;
-use crate::support::{App, fixture, pointers, problem};
+use crate::support::{App, fixture, num, pointers, problem};
 
 both_stores!(
     the_webster_mission_is_planned_from_telemetry_around_moving_obstacles,
@@ -16,6 +16,7 @@ both_stores!(
     a_stored_plan_replays_identically_even_after_more_telemetry,
     the_search_area_ladder_covers_the_search_grid_with_validated_parameters,
     the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_revision,
+    a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows,
 );
 
 /// Time of obstacle "0"'s first observation, Unix seconds.
@@ -613,4 +614,56 @@ async fn the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_re
     )
     .await;
     assert_eq!(p3["target_pending_s"], 0.0, "{p3}");
+}
+
+/// Telemetry in a form that carries no speed (as the interop forms): the plan's start takes
+/// the ground speed between the newest sample and the one 0.5-2 s before it, so the route
+/// is timed at what the aircraft flies, not at the 20 m/s default; a reported speed wins;
+/// the stored plan replays with the speed it used.
+async fn a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows(app: App) {
+    let id = app.create_webster_mission().await;
+    // About 111 km per degree of latitude (the server measures in its own frame, hence
+    // the tolerance below).
+    let north = |m: f64| (AIRCRAFT.0 + m / 111_000.0, AIRCRAFT.1);
+    // 5 Hz for 2 s, northward at about 15 m/s, no speed.
+    let track: Vec<Value> = (0..=10)
+        .map(|k| {
+            let (lat, lon) = north(3.0 * f64::from(k));
+            json!({"t": T0 + 0.2 * f64::from(k), "lat": lat, "lon": lon,
+                   "alt_msl_m": 60.96, "heading_deg": 0.0})
+        })
+        .collect();
+    let r = app
+        .post_json(&format!("/api/v1/missions/{id}/telemetry"), &json!(track))
+        .await;
+    assert_eq!(r.status(), 202);
+    let first = plan(&app, &id, json!({"seed": 3, "current_index": 1})).await;
+    let v = num(&first, "/start/speed_mps");
+    assert!((v - 15.0).abs() < 0.3, "{v}: {}", first["start"]);
+    assert_eq!(num(&first, "/start/t"), T0 + 2.0);
+
+    // The aircraft now reports its speed: that wins.
+    let (lat, lon) = north(33.0);
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/telemetry"),
+            &json!({"t": T0 + 2.2, "lat": lat, "lon": lon, "alt_msl_m": 60.96,
+                    "heading_deg": 0.0, "speed_mps": 18.0}),
+        )
+        .await;
+    assert_eq!(r.status(), 202);
+    let second = plan(&app, &id, json!({"seed": 3})).await;
+    assert_eq!(num(&second, "/start/speed_mps"), 18.0);
+
+    // The first plan replays from what it used, the estimated speed included.
+    let replay = app
+        .post_ok(
+            &format!(
+                "/api/v1/missions/{id}/plans/{}/replay",
+                first["plan_id"].as_str().unwrap()
+            ),
+            &json!({}),
+        )
+        .await;
+    assert_eq!(replay["identical"], true, "{replay}");
 }
