@@ -197,6 +197,15 @@ pub fn obstacle_snapshot(scenario: &Scenario, frame: &LocalFrame, t_s: f64) -> V
     json!({"moving_obstacles": moving, "stationary_obstacles": []})
 }
 
+/// Native aircraft telemetry of the simulated aircraft's `state` at Unix time `t_s`
+/// (the simulator's heading, counter-clockwise from east, as a compass heading).
+pub fn telemetry_json(state: &sim::aircraft::AircraftState, frame: &LocalFrame, t_s: f64) -> Value {
+    let (lat, lon) = frame.to_geodetic([state.p_m[0], state.p_m[1]]);
+    let heading = (90.0 - state.heading_rad.to_degrees()).rem_euclid(360.0);
+    json!({"t": t_s, "lat": lat, "lon": lon, "alt_msl_m": state.p_m[2],
+        "heading_deg": heading, "speed_mps": state.speed_mps})
+}
+
 /// The autopilot's stack for a plan's answer (ENU metres in the mission's frame).
 pub fn stack_from_plan(plan: &PlanOut, frame: &LocalFrame) -> Stack {
     Stack {
@@ -308,11 +317,7 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
             step += 1;
             let t_s = t0_s + step as f64 * STEP_S;
             if step.is_multiple_of(POST_EVERY) {
-                let s = ap.state;
-                let (lat, lon) = frame.to_geodetic([s.p_m[0], s.p_m[1]]);
-                let heading = (90.0 - s.heading_rad.to_degrees()).rem_euclid(360.0);
-                let telemetry = json!({"t": t_s, "lat": lat, "lon": lon, "alt_msl_m": s.p_m[2],
-                    "heading_deg": heading, "speed_mps": s.speed_mps});
+                let telemetry = telemetry_json(&ap.state, &frame, t_s);
                 let snapshot = obstacle_snapshot(&scenario, &frame, ap.state.t_s);
                 post_detached(
                     &client,

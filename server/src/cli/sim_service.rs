@@ -224,11 +224,7 @@ impl HttpPlanner {
             )
             .await?;
         }
-        let s = view.own;
-        let (lat, lon) = self.frame.to_geodetic([s.p_m[0], s.p_m[1]]);
-        let heading = (90.0 - s.heading_rad.to_degrees()).rem_euclid(360.0);
-        let mut tel = json!({"t": T0_S + view.t_s, "lat": lat, "lon": lon, "alt_msl_m": s.p_m[2],
-                "heading_deg": heading, "speed_mps": s.speed_mps});
+        let mut tel = super::demo::telemetry_json(&view.own, &self.frame, T0_S + view.t_s);
         if self.bare
             && let Some(o) = tel.as_object_mut()
         {
