@@ -81,6 +81,9 @@ pub struct PlanInputs {
     pub horizon_s: f64,
     /// Cruise speed and turn radius.
     pub aircraft: planner::Aircraft,
+    /// True when the request gave no turn radius and `aircraft.turn_radius_m` is the
+    /// default derived from the speed (the plan then warns `turn_radius_assumed`).
+    pub turn_radius_assumed: bool,
     /// Index in `stack` the aircraft flies toward.
     pub current_index: usize,
     /// The base stack (empty = the mission's waypoints).
@@ -366,7 +369,7 @@ pub fn plan_out(
         compute_ms: c.compute_ms,
         dynamic_risk: c.dynamic_risk,
         obstacles: c.obstacles.clone(),
-        warnings: c.warnings.clone(),
+        warnings: warnings_of(inputs, c),
         observation_seq: c.observation_seq,
         map_lag_batches: 0,
         map_age_ms: 0.0,
@@ -377,6 +380,34 @@ pub fn plan_out(
         start: StartOut::from(&inputs.start),
         created_at: format_rfc3339(now),
     }
+}
+
+/// The plan's warnings: its view's, and `turn_radius_assumed` when the request gave no
+/// turn radius.
+fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
+    let mut w = c.warnings.clone();
+    if inputs.turn_radius_assumed {
+        w.push(PlanWarning {
+            code: "turn_radius_assumed".into(),
+            message: format!(
+                "no aircraft.turn_radius_m in the request: turns assumed at {:.1} m ({} degrees of bank at {:.1} m/s). Send the aircraft's own minimum turn radius: a radius smaller than the aircraft's lets a plan hold turns the aircraft flies wide of.",
+                inputs.aircraft.turn_radius_m,
+                super::plans::DEFAULT_BANK_DEG,
+                planned_speed_mps(&inputs.start, inputs.aircraft.speed_mps),
+            ),
+        });
+    }
+    w
+}
+
+/// The speed the planner times the route with: the start's when known, else the
+/// request's cruise speed (as [`planner::plan`] does).
+pub fn planned_speed_mps(start: &Start, cruise_mps: f64) -> f64 {
+    start
+        .at
+        .speed_mps
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .unwrap_or(cruise_mps)
 }
 
 /// A new seed that survives JSON numbers in every client (< 2^53).

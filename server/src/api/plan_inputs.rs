@@ -48,6 +48,9 @@ pub struct InputsRecord {
     pub speed_mps: f64,
     /// Turn radius, metres.
     pub turn_radius_m: f64,
+    /// True when `turn_radius_m` is the default (the request gave none).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub turn_radius_assumed: bool,
     /// Index in `stack` the aircraft flies toward.
     pub current_index: usize,
     /// The base stack (empty = the mission's waypoints).
@@ -134,6 +137,7 @@ impl InputsRecord {
             horizon_s: inputs.horizon_s,
             speed_mps: inputs.aircraft.speed_mps,
             turn_radius_m: inputs.aircraft.turn_radius_m,
+            turn_radius_assumed: inputs.turn_radius_assumed,
             current_index: inputs.current_index,
             stack: inputs.stack.iter().map(StoredItem::from).collect(),
             start: StoredStart::from(&inputs.start),
@@ -177,6 +181,7 @@ impl InputsRecord {
                 speed_mps: self.speed_mps,
                 turn_radius_m: self.turn_radius_m,
             },
+            turn_radius_assumed: self.turn_radius_assumed,
             current_index: self.current_index,
             stack: self
                 .stack
@@ -342,6 +347,7 @@ mod tests {
                 speed_mps: 20.0,
                 turn_radius_m: 40.0,
             },
+            turn_radius_assumed: false,
             current_index: 1,
             stack: vec![
                 GeoItem {

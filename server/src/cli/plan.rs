@@ -44,9 +44,10 @@ pub struct PlanArgs {
     /// Cruise speed, m/s.
     #[arg(long, default_value_t = 20.0)]
     pub speed_mps: f64,
-    /// Turn radius, m.
-    #[arg(long, default_value_t = 40.0)]
-    pub turn_radius_m: f64,
+    /// Minimum turn radius, m (default: a coordinated turn at 30 degrees of bank at the
+    /// cruise speed, as the service assumes).
+    #[arg(long)]
+    pub turn_radius_m: Option<f64>,
     /// Deadline, ms (default none).
     #[arg(long)]
     pub deadline_ms: Option<u64>,
@@ -194,8 +195,11 @@ pub fn run(args: PlanArgs) -> ExitCode {
         horizon_s: 60.0,
         aircraft: planner::Aircraft {
             speed_mps: args.speed_mps,
-            turn_radius_m: args.turn_radius_m,
+            turn_radius_m: args
+                .turn_radius_m
+                .unwrap_or_else(|| crate::api::plans::default_turn_radius_m(args.speed_mps)),
         },
+        turn_radius_assumed: args.turn_radius_m.is_none(),
         current_index,
         stack: Vec::new(),
         start,

@@ -48,7 +48,8 @@ pub struct PlanObstacle {
 /// Something about a plan's inputs the operator should know.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, ToSchema)]
 pub struct PlanWarning {
-    /// `clock_mismatch`, `obstacles_left_out` or `no_telemetry`.
+    /// `clock_mismatch`, `obstacles_left_out`, `no_telemetry` or `turn_radius_assumed`
+    /// (the request gave no `aircraft.turn_radius_m`; the message names the one used).
     pub code: String,
     /// What happened and what to do about it.
     pub message: String,

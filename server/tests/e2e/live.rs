@@ -46,7 +46,12 @@ async fn stages(app: &App, id: &str) -> Vec<(String, String)> {
 
 async fn a_plan_lists_the_obstacles_it_used_with_the_stages_the_operator_sees(app: App) {
     let id = webster_flight(&app, 6).await;
-    let p = plan(&app, &id, json!({"seed": 3, "current_index": 1})).await;
+    let p = plan(
+        &app,
+        &id,
+        json!({"seed": 3, "current_index": 1, "aircraft": {"turn_radius_m": 40.0}}),
+    )
+    .await;
     assert_eq!(p["warnings"], json!([]), "{p}");
     assert_eq!(p["observation_seq"], 6);
     assert_eq!(p["dynamic_risk"]["obstacles"], 2);

@@ -619,7 +619,9 @@ async fn the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_re
 /// Telemetry in a form that carries no speed (as the interop forms): the plan's start takes
 /// the ground speed between the newest sample and the one 0.5-2 s before it, so the route
 /// is timed at what the aircraft flies, not at the 20 m/s default; a reported speed wins;
-/// the stored plan replays with the speed it used.
+/// the stored plan replays with the speed it used. A request without a turn radius gets the
+/// radius of a 30-degree-bank turn at that speed, and a `turn_radius_assumed` warning
+/// naming it; a request that gives one gets no such warning.
 async fn a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows(app: App) {
     let id = app.create_webster_mission().await;
     // About 111 km per degree of latitude (the server measures in its own frame, hence
@@ -641,6 +643,20 @@ async fn a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows
     let v = num(&first, "/start/speed_mps");
     assert!((v - 15.0).abs() < 0.3, "{v}: {}", first["start"]);
     assert_eq!(num(&first, "/start/t"), T0 + 2.0);
+    // v^2 / (g tan 30 deg) at the estimated speed (about 39.7 m at 15 m/s).
+    let radius = v * v / (9.806_65 * 30f64.to_radians().tan());
+    let assumed = turn_radius_warning(&first).expect("a turn_radius_assumed warning");
+    assert!(
+        assumed.contains(&format!("{radius:.1} m")),
+        "{assumed} (expected {radius:.1} m)"
+    );
+    let given = plan(
+        &app,
+        &id,
+        json!({"seed": 3, "current_index": 1, "aircraft": {"turn_radius_m": 35.0}}),
+    )
+    .await;
+    assert_eq!(turn_radius_warning(&given), None, "{}", given["warnings"]);
 
     // The aircraft now reports its speed: that wins.
     let (lat, lon) = north(33.0);
@@ -654,6 +670,8 @@ async fn a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows
     assert_eq!(r.status(), 202);
     let second = plan(&app, &id, json!({"seed": 3})).await;
     assert_eq!(num(&second, "/start/speed_mps"), 18.0);
+    let assumed = turn_radius_warning(&second).expect("a turn_radius_assumed warning");
+    assert!(assumed.contains("57.2 m"), "{assumed}");
 
     // The first plan replays from what it used, the estimated speed included.
     let replay = app
@@ -666,4 +684,14 @@ async fn a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows
         )
         .await;
     assert_eq!(replay["identical"], true, "{replay}");
+}
+
+/// The message of a plan's `turn_radius_assumed` warning, if it has one.
+fn turn_radius_warning(plan: &Value) -> Option<String> {
+    plan["warnings"]
+        .as_array()
+        .expect("warnings")
+        .iter()
+        .find(|w| w["code"] == "turn_radius_assumed")
+        .map(|w| w["message"].as_str().expect("message").to_string())
 }

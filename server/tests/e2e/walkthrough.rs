@@ -97,7 +97,8 @@ async fn the_readme_walk_through_does_what_it_says(app: App) {
     let r = app
         .post_json(
             &format!("/api/v1/missions/{id}/plan"),
-            &json!({"seed": 42, "current_index": 1}),
+            &json!({"seed": 42, "current_index": 1,
+                    "aircraft": {"speed_mps": 20, "turn_radius_m": 58}}),
         )
         .await;
     assert_eq!(r.status(), 201);
