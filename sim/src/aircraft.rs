@@ -69,6 +69,8 @@ impl AircraftParams {
         speed_mps(speed_mps: f64);
         /// Sets the maximum bank, degrees.
         max_bank_deg(max_bank_deg: f64);
+        /// Sets the waypoint acceptance radius, metres.
+        acceptance_radius_m(acceptance_radius_m: f64);
     }
 }
 
@@ -278,5 +280,31 @@ mod tests {
         assert!(max_xt_late < 2.0, "cross-track after 800 m: {max_xt_late}");
         // 2 km at 20 m/s is 100 s; the convergence adds a little
         assert!(steps < 1060, "{steps}");
+    }
+
+    #[test]
+    fn the_autopilot_goes_on_to_the_next_item_at_its_acceptance_radius() {
+        // East along y = 0 toward (1000, 0), then a right angle north: the distance left to
+        // the first item when the autopilot switches is the acceptance radius (within a step).
+        for radius in [10.0, 90.0] {
+            let params = AircraftParams::default().acceptance_radius_m(radius);
+            let mut ap = Autopilot::new(params, [0.0, 0.0, 100.0], [1.0, 0.0]);
+            ap.leg_start_m = [0.0, 0.0];
+            let mut stack = Stack {
+                items: vec![
+                    StackItem::mission(0, [1000.0, 0.0], 100.0),
+                    StackItem::mission(1, [1000.0, 1000.0], 100.0),
+                ],
+                current: 0,
+            };
+            let mut steps = 0;
+            while stack.current == 0 && steps < 2000 {
+                ap.step(&mut stack, 0.1);
+                steps += 1;
+            }
+            let left = dist(xy(ap.state.p_m), [1000.0, 0.0]);
+            // One 0.1 s step is 2 m at 20 m/s.
+            assert!(left <= radius && left > radius - 2.5, "{radius}: {left}");
+        }
     }
 }

@@ -90,6 +90,12 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 35.0)]
     pub max_bank_deg: f64,
 
+    /// Waypoint acceptance radius of the simulated aircraft's autopilot, metres (it goes on
+    /// to the next item within this distance, or on passing the item). ArduPlane's
+    /// `WP_RADIUS` defaults to 90.
+    #[arg(long, default_value_t = 10.0)]
+    pub acceptance_radius: f64,
+
     /// Also write the prediction report (stages vs constant velocity per behaviour) over
     /// this many seeds per behaviour (0 = skip).
     #[arg(long, default_value_t = 0)]
@@ -180,6 +186,13 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         eprintln!("jink simulate: --max-bank-deg must be in [10, 70] degrees");
         return ExitCode::FAILURE;
     }
+    if !(args.acceptance_radius.is_finite()
+        && args.acceptance_radius >= 1.0
+        && args.acceptance_radius <= 500.0)
+    {
+        eprintln!("jink simulate: --acceptance-radius must be in [1, 500] m");
+        return ExitCode::FAILURE;
+    }
     let mut cfg = SuiteConfig {
         families,
         seeds: (args.first_seed..args.first_seed + args.seeds).collect(),
@@ -191,7 +204,8 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         .run
         .aircraft
         .speed_mps(args.aircraft_speed)
-        .max_bank_deg(args.max_bank_deg);
+        .max_bank_deg(args.max_bank_deg)
+        .acceptance_radius_m(args.acceptance_radius);
     cfg.scenario.aircraft_speed_mps = args.aircraft_speed;
     let cfg = cfg;
     let make = |family: Family, seed: u64| -> Scenario {
