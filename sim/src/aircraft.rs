@@ -71,6 +71,8 @@ impl AircraftParams {
         max_bank_deg(max_bank_deg: f64);
         /// Sets the waypoint acceptance radius, metres.
         acceptance_radius_m(acceptance_radius_m: f64);
+        /// Sets the L1 period, seconds.
+        l1_period_s(l1_period_s: f64);
     }
 }
 

@@ -96,6 +96,11 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 10.0)]
     pub acceptance_radius: f64,
 
+    /// L1 period of the simulated aircraft's path following, seconds (ArduPlane's
+    /// `NAVL1_PERIOD`; longer is gentler and slower to converge onto a leg).
+    #[arg(long, default_value_t = 17.0)]
+    pub l1_period: f64,
+
     /// Also write the prediction report (stages vs constant velocity per behaviour) over
     /// this many seeds per behaviour (0 = skip).
     #[arg(long, default_value_t = 0)]
@@ -193,6 +198,10 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         eprintln!("jink simulate: --acceptance-radius must be in [1, 500] m");
         return ExitCode::FAILURE;
     }
+    if !(args.l1_period.is_finite() && args.l1_period >= 5.0 && args.l1_period <= 60.0) {
+        eprintln!("jink simulate: --l1-period must be in [5, 60] s");
+        return ExitCode::FAILURE;
+    }
     let mut cfg = SuiteConfig {
         families,
         seeds: (args.first_seed..args.first_seed + args.seeds).collect(),
@@ -205,7 +214,8 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         .aircraft
         .speed_mps(args.aircraft_speed)
         .max_bank_deg(args.max_bank_deg)
-        .acceptance_radius_m(args.acceptance_radius);
+        .acceptance_radius_m(args.acceptance_radius)
+        .l1_period_s(args.l1_period);
     cfg.scenario.aircraft_speed_mps = args.aircraft_speed;
     let cfg = cfg;
     let make = |family: Family, seed: u64| -> Scenario {
