@@ -248,13 +248,13 @@ async fn create_plan(
             format!("must be in (0, {max_speed}] m/s"),
         ));
     }
-    if let Some(r) = a.turn_radius_m {
-        if !(r.is_finite() && (0.0..=MAX_TURN_RADIUS_M).contains(&r)) {
-            return Err(ApiError::field(
-                "/aircraft/turn_radius_m",
-                format!("must be in [0, {MAX_TURN_RADIUS_M}] m"),
-            ));
-        }
+    if let Some(r) = a.turn_radius_m
+        && !(r.is_finite() && (0.0..=MAX_TURN_RADIUS_M).contains(&r))
+    {
+        return Err(ApiError::field(
+            "/aircraft/turn_radius_m",
+            format!("must be in [0, {MAX_TURN_RADIUS_M}] m"),
+        ));
     }
     let horizon_s = body.horizon_s.unwrap_or(60.0);
     if !(horizon_s.is_finite() && horizon_s > 0.0 && horizon_s <= 600.0) {
