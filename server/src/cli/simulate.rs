@@ -180,27 +180,23 @@ pub fn run(args: SimulateArgs) -> ExitCode {
             .num_threads(n)
             .build_global();
     }
-    if !(args.aircraft_speed.is_finite()
-        && args.aircraft_speed >= 5.0
-        && args.aircraft_speed <= 100.0)
-    {
-        eprintln!("jink simulate: --aircraft-speed must be in [5, 100] m/s");
-        return ExitCode::FAILURE;
-    }
-    if !(args.max_bank_deg.is_finite() && args.max_bank_deg >= 10.0 && args.max_bank_deg <= 70.0) {
-        eprintln!("jink simulate: --max-bank-deg must be in [10, 70] degrees");
-        return ExitCode::FAILURE;
-    }
-    if !(args.acceptance_radius.is_finite()
-        && args.acceptance_radius >= 1.0
-        && args.acceptance_radius <= 500.0)
-    {
-        eprintln!("jink simulate: --acceptance-radius must be in [1, 500] m");
-        return ExitCode::FAILURE;
-    }
-    if !(args.l1_period.is_finite() && args.l1_period >= 5.0 && args.l1_period <= 60.0) {
-        eprintln!("jink simulate: --l1-period must be in [5, 60] s");
-        return ExitCode::FAILURE;
+    // The simulated aircraft's flags: value, accepted range, unit.
+    for (flag, v, lo, hi, unit) in [
+        ("--aircraft-speed", args.aircraft_speed, 5.0, 100.0, "m/s"),
+        ("--max-bank-deg", args.max_bank_deg, 10.0, 70.0, "degrees"),
+        (
+            "--acceptance-radius",
+            args.acceptance_radius,
+            1.0,
+            500.0,
+            "m",
+        ),
+        ("--l1-period", args.l1_period, 5.0, 60.0, "s"),
+    ] {
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            eprintln!("jink simulate: {flag} must be in [{lo}, {hi}] {unit}");
+            return ExitCode::FAILURE;
+        }
     }
     let mut cfg = SuiteConfig {
         families,

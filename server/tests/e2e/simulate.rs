@@ -74,3 +74,37 @@ fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
     }
     assert!(served["replans"].as_u64().unwrap() > 100, "{served}");
 }
+
+#[test]
+fn a_simulated_aircraft_flag_out_of_range_is_refused_naming_the_flag() {
+    for (flag, value, range) in [
+        ("--aircraft-speed", "2", "[5, 100] m/s"),
+        ("--max-bank-deg", "80", "[10, 70] degrees"),
+        ("--acceptance-radius", "0.5", "[1, 500] m"),
+        ("--l1-period", "NaN", "[5, 60] s"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
+            .args([
+                "simulate",
+                "--seeds",
+                "1",
+                "--no-plot",
+                "--quiet",
+                flag,
+                value,
+            ])
+            .arg("--out")
+            .arg(dir.path())
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{flag} {value}: {stderr}");
+        assert!(
+            stderr.contains(&format!("{flag} must be in {range}")),
+            "{flag} {value}: {stderr}"
+        );
+        // Nothing was simulated.
+        assert!(!dir.path().join("report.json").exists(), "{flag}");
+    }
+}
