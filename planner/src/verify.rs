@@ -77,6 +77,9 @@ pub struct VerifyParams {
     pub delay_credit_s: f64,
 }
 
+/// The judges' waypoint capture distance, 100 ft in metres.
+pub const JUDGE_CAPTURE_M: f64 = 30.48;
+
 impl Default for VerifyParams {
     fn default() -> Self {
         Self {
@@ -575,7 +578,11 @@ pub fn verify_route_to_beat<'e>(
             // tuned for the aircraft flies a tighter one.
             l1_m: (params.l1_s * speed_mps).min(2.0 * turn_radius_m),
             acceptance_m: params.acceptance_m,
-            capture_m: params.capture_m,
+            // An autopilot that switches at up to the judges' 100 ft captures where it
+            // switches: counting that a miss would make every waypoint look missed.
+            capture_m: params
+                .capture_m
+                .max(params.acceptance_m.min(JUDGE_CAPTURE_M)),
         },
     ] {
         if lost(&acc.out, true) {
@@ -1274,6 +1281,28 @@ mod tests {
             ..va
         };
         assert!(v.better_than(&risky, 0.05, 0.25));
+    }
+
+    #[test]
+    fn an_autopilot_switching_within_100_ft_captures_where_it_switches() {
+        // North to W0 400 m ahead, then a right angle east to W1: the autopilot switches
+        // at its acceptance radius, short of W0.
+        let tail = [
+            StackItem::mission(0, [0.0, 400.0], 100.0),
+            StackItem::mission(1, [400.0, 400.0], 100.0),
+        ];
+        let missed = |acceptance_m: f64| {
+            let params = VerifyParams {
+                acceptance_m,
+                ..VerifyParams::default()
+            };
+            check_with(&NoRisk, &[], &state(0.0), &tail, &params).first_missed
+        };
+        // 10 m (the default) and 30 m: within the judges' 30.48 m, captured.
+        assert_eq!(missed(10.0), None);
+        assert_eq!(missed(30.0), None);
+        // 40 m: it turns away before it comes within 100 ft of W0.
+        assert_eq!(missed(40.0), Some(0));
     }
 
     #[test]

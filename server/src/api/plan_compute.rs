@@ -84,6 +84,9 @@ pub struct PlanInputs {
     /// True when the request gave no turn radius and `aircraft.turn_radius_m` is the
     /// default derived from the speed (the plan then warns `turn_radius_assumed`).
     pub turn_radius_assumed: bool,
+    /// The autopilot's waypoint acceptance radius, metres (`None`: the verification's
+    /// default, 10).
+    pub acceptance_radius_m: Option<f64>,
     /// Index in `stack` the aircraft flies toward.
     pub current_index: usize,
     /// The base stack (empty = the mission's waypoints).
@@ -246,7 +249,10 @@ pub fn compute(
     };
     // One pipeline with the simulator: the seam sets the sample budget from the least
     // predictable stage in the map (seed 002).
-    let cfg = crate::live::snapshot::service_config(inputs.horizon_s);
+    let mut cfg = crate::live::snapshot::service_config(inputs.horizon_s);
+    if let Some(a) = inputs.acceptance_radius_m {
+        cfg.plan.verify.acceptance_m = a;
+    }
     let r = planner::Replan {
         mission: &pm,
         aircraft: inputs.aircraft,

@@ -51,6 +51,9 @@ pub struct InputsRecord {
     /// True when `turn_radius_m` is the default (the request gave none).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub turn_radius_assumed: bool,
+    /// The autopilot's acceptance radius, metres (absent: the default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub acceptance_radius_m: Option<f64>,
     /// Index in `stack` the aircraft flies toward.
     pub current_index: usize,
     /// The base stack (empty = the mission's waypoints).
@@ -138,6 +141,7 @@ impl InputsRecord {
             speed_mps: inputs.aircraft.speed_mps,
             turn_radius_m: inputs.aircraft.turn_radius_m,
             turn_radius_assumed: inputs.turn_radius_assumed,
+            acceptance_radius_m: inputs.acceptance_radius_m,
             current_index: inputs.current_index,
             stack: inputs.stack.iter().map(StoredItem::from).collect(),
             start: StoredStart::from(&inputs.start),
@@ -182,6 +186,7 @@ impl InputsRecord {
                 turn_radius_m: self.turn_radius_m,
             },
             turn_radius_assumed: self.turn_radius_assumed,
+            acceptance_radius_m: self.acceptance_radius_m,
             current_index: self.current_index,
             stack: self
                 .stack
@@ -348,6 +353,7 @@ mod tests {
                 turn_radius_m: 40.0,
             },
             turn_radius_assumed: false,
+            acceptance_radius_m: None,
             current_index: 1,
             stack: vec![
                 GeoItem {
@@ -453,6 +459,23 @@ mod tests {
             assert!(v["stack"][0].get("lat").is_none(), "{v}");
             assert_eq!(stored_inputs(&row(&text)).unwrap(), inputs);
         }
+        // The aircraft's optional facts come back as given, and absent when not given.
+        let inputs = PlanInputs {
+            turn_radius_assumed: true,
+            acceptance_radius_m: Some(30.0),
+            ..expected(Observations::Through(9))
+        };
+        let text = InputsRecord::of(&inputs).to_json().unwrap();
+        let v: Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(
+            (&v["turn_radius_assumed"], &v["acceptance_radius_m"]),
+            (&json!(true), &json!(30.0))
+        );
+        assert_eq!(stored_inputs(&row(&text)).unwrap(), inputs);
+        let plain = InputsRecord::of(&expected(Observations::Through(9)))
+            .to_json()
+            .unwrap();
+        assert!(!plain.contains("turn_radius_assumed") && !plain.contains("acceptance"));
     }
 
     #[test]

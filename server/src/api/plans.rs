@@ -71,7 +71,17 @@ pub struct AircraftIn {
     /// is not safe (the plan's turns are flown wider than it verified).
     #[schema(minimum = 0, maximum = 10000)]
     pub turn_radius_m: Option<f64>,
+    /// The autopilot's waypoint acceptance radius, metres (ArduPlane `WP_RADIUS`, PX4
+    /// `NAV_ACC_RAD`): it goes on to the next item within this distance of the current one
+    /// (or on passing it). The plan's check of its routes flies them so. Default 10, at
+    /// most 500. The judges count a waypoint within 100 ft: above about 25 m the autopilot
+    /// turns away before it captures them.
+    #[schema(minimum = 0, maximum = 500)]
+    pub acceptance_radius_m: Option<f64>,
 }
+
+/// The largest acceptance radius a plan accepts, metres.
+const MAX_ACCEPTANCE_RADIUS_M: f64 = 500.0;
 
 /// Bank angle of the default turn radius ([`default_turn_radius_m`]), degrees.
 pub const DEFAULT_BANK_DEG: f64 = 30.0;
@@ -256,6 +266,14 @@ async fn create_plan(
             format!("must be in [0, {MAX_TURN_RADIUS_M}] m"),
         ));
     }
+    if let Some(r) = a.acceptance_radius_m
+        && !(r.is_finite() && (0.0..=MAX_ACCEPTANCE_RADIUS_M).contains(&r))
+    {
+        return Err(ApiError::field(
+            "/aircraft/acceptance_radius_m",
+            format!("must be in [0, {MAX_ACCEPTANCE_RADIUS_M}] m"),
+        ));
+    }
     let horizon_s = body.horizon_s.unwrap_or(60.0);
     if !(horizon_s.is_finite() && horizon_s > 0.0 && horizon_s <= 600.0) {
         return Err(ApiError::field("/horizon_s", "must be in (0, 600]"));
@@ -309,6 +327,7 @@ async fn create_plan(
             turn_radius_m,
         },
         turn_radius_assumed: a.turn_radius_m.is_none(),
+        acceptance_radius_m: a.acceptance_radius_m,
         current_index,
         stack,
         start,

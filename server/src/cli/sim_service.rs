@@ -241,7 +241,8 @@ impl HttpPlanner {
             "seed": planner::plan::leg_seed(self.seed, self.calls as usize, 0),
             "base_revision": self.revision,
             "current_index": view.stack.current,
-            "aircraft": {"speed_mps": a.speed_mps, "turn_radius_m": a.turn_radius_m},
+            "aircraft": {"speed_mps": a.speed_mps, "turn_radius_m": a.turn_radius_m,
+                         "acceptance_radius_m": view.aircraft.acceptance_radius_m},
         });
         if self.bare
             && let Some(o) = body.as_object_mut()

@@ -219,6 +219,14 @@ async fn a_stale_base_revision_is_refused_with_409(app: App) {
         (json!({"speed_mps": 2.98e16}), "/aircraft/speed_mps"),
         (json!({"speed_mps": 201.0}), "/aircraft/speed_mps"),
         (json!({"turn_radius_m": 5.3e307}), "/aircraft/turn_radius_m"),
+        (
+            json!({"acceptance_radius_m": 501.0}),
+            "/aircraft/acceptance_radius_m",
+        ),
+        (
+            json!({"acceptance_radius_m": -1.0}),
+            "/aircraft/acceptance_radius_m",
+        ),
     ] {
         let r = app
             .post_json(

@@ -274,7 +274,10 @@ pub fn replan_command(
         seed,
         target_pending_s: pending_s,
     };
-    match planner::replan(&r, dynamic, cfg, &planner::Termination::none()) {
+    // The service is told the autopilot's acceptance radius (`aircraft.acceptance_radius_m`).
+    let mut cfg = cfg.clone();
+    cfg.plan.verify.acceptance_m = view.aircraft.acceptance_radius_m;
+    match planner::replan(&r, dynamic, &cfg, &planner::Termination::none()) {
         Ok(p) => Command::Replace(Stack {
             items: p.plan.items,
             current: p.plan.current_index,
