@@ -76,6 +76,18 @@ pub struct Aircraft {
     pub turn_radius_m: f64,
 }
 
+impl Aircraft {
+    /// The speed a route is timed with: the aircraft's measured ground speed
+    /// (`reported_mps`) when it is a positive number, else the cruise speed.
+    pub fn route_speed_mps(&self, reported_mps: f64) -> f64 {
+        if reported_mps > 0.0 && reported_mps.is_finite() {
+            reported_mps
+        } else {
+            self.speed_mps
+        }
+    }
+}
+
 impl Default for Aircraft {
     /// 20 m/s (~39 kt) and a 40 m turn radius: a typical SUAS fixed wing.
     fn default() -> Self {

@@ -402,11 +402,7 @@ pub fn plan_until(
     risk: &dyn RiskField,
     term: &Termination,
 ) -> Result<Plan, PlanError> {
-    let speed = if req.state.speed_mps > 0.0 && req.state.speed_mps.is_finite() {
-        req.state.speed_mps
-    } else {
-        req.aircraft.speed_mps
-    };
+    let speed = req.aircraft.route_speed_mps(req.state.speed_mps);
     if !(speed > 0.0 && speed.is_finite()) {
         return Err(PlanError::BadSpeed(speed));
     }

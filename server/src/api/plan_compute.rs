@@ -406,14 +406,14 @@ fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
     w
 }
 
-/// The speed the planner times the route with: the start's when known, else the
-/// request's cruise speed (as [`planner::plan`] does).
+/// The speed the planner times the route with ([`planner::Aircraft::route_speed_mps`]):
+/// the start's when known, else the request's cruise speed.
 pub fn planned_speed_mps(start: &Start, cruise_mps: f64) -> f64 {
-    start
-        .at
-        .speed_mps
-        .filter(|v| v.is_finite() && *v > 0.0)
-        .unwrap_or(cruise_mps)
+    planner::Aircraft {
+        speed_mps: cruise_mps,
+        ..planner::Aircraft::default()
+    }
+    .route_speed_mps(start.at.speed_mps.unwrap_or(0.0))
 }
 
 /// A new seed that survives JSON numbers in every client (< 2^53).

@@ -5,12 +5,22 @@
 
 use serde_json::Value;
 
+/// `jink simulate ARGS --out OUT`, the real binary.
+fn simulate(args: &[&str], out: &std::path::Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
+        .arg("simulate")
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
     let dir = tempfile::tempdir().unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
-        .args([
-            "simulate",
+    let out = simulate(
+        &[
             "--family",
             "mixed",
             "--first-seed",
@@ -23,11 +33,9 @@ fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
             "--quiet",
             "--threads",
             "1",
-            "--out",
-        ])
-        .arg(dir.path())
-        .output()
-        .unwrap();
+        ],
+        dir.path(),
+    );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
@@ -84,20 +92,10 @@ fn a_simulated_aircraft_flag_out_of_range_is_refused_naming_the_flag() {
         ("--l1-period", "NaN", "[5, 60] s"),
     ] {
         let dir = tempfile::tempdir().unwrap();
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
-            .args([
-                "simulate",
-                "--seeds",
-                "1",
-                "--no-plot",
-                "--quiet",
-                flag,
-                value,
-            ])
-            .arg("--out")
-            .arg(dir.path())
-            .output()
-            .unwrap();
+        let out = simulate(
+            &["--seeds", "1", "--no-plot", "--quiet", flag, value],
+            dir.path(),
+        );
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{flag} {value}: {stderr}");
         assert!(
