@@ -45,6 +45,7 @@ pub mod plan;
 pub mod prepass;
 pub mod reactive;
 pub mod replan;
+pub mod revisit;
 pub mod simplify;
 pub mod stack;
 pub mod tangent;
@@ -60,6 +61,7 @@ pub use plan::{
 pub use replan::{
     Dynamic, DynamicSeen, LiveMap, Replan, ReplanConfig, Replanned, SeenObstacle, live_map, replan,
 };
+pub use revisit::{Missed, TrackPoint, missed_waypoint};
 pub use stack::{ItemKind, StackDiff, StackItem, diff};
 pub use termination::Termination;
 pub use verify::{Conflict, Rival, Verification, VerifyParams, verify_route, verify_route_to_beat};

@@ -33,7 +33,8 @@ use predictor::{NoRisk, ObstacleSummary, Predictor, RiskField, RiskMap, RiskMapC
 
 use crate::mission::{Aircraft, Mission};
 use crate::plan::{AircraftState, Plan, PlanError, PlanParams, PlanRequest, Strategy, plan_until};
-use crate::stack::{StackItem, mission_stack};
+use crate::revisit::with_revisit;
+use crate::stack::{StackItem, diff, mission_stack};
 use crate::termination::Termination;
 
 /// Risk-map slice interval, seconds.
@@ -176,6 +177,10 @@ pub struct Replan<'a> {
     /// verification ([`crate::verify::VerifyParams::delay_credit_s`]), so a waypoint is put
     /// off for at most that long in all. `None`: unknown, taken as 0.
     pub target_pending_s: Option<f64>,
+    /// Fly the item just passed (`stack[current_index - 1]`) again before the rest: the
+    /// caller found it missed ([`crate::revisit::missed_waypoint`]). The plan's stack then
+    /// holds a copy of it at `current_index`, and its diff is against `stack` as given.
+    pub revisit: bool,
 }
 
 /// A plan and the dynamic risk it saw.
@@ -290,12 +295,17 @@ pub fn replan(
     term: &Termination,
 ) -> Result<Replanned, PlanError> {
     let owned;
-    let stack = if r.stack.is_empty() {
+    let given = if r.stack.is_empty() {
         owned = mission_stack(r.mission);
         &owned[..]
     } else {
         r.stack
     };
+    let revisited = r
+        .revisit
+        .then(|| with_revisit(given, r.current_index))
+        .flatten();
+    let stack = revisited.as_deref().unwrap_or(given);
     // The altitudes still to fly.
     let (mut lo, mut hi) = (r.state.alt_m, r.state.alt_m);
     for it in stack.iter().skip(r.current_index) {
@@ -367,6 +377,9 @@ pub fn replan(
         params,
         seed: r.seed,
     };
-    let plan = plan_until(&req, risk, term)?;
+    let mut plan = plan_until(&req, risk, term)?;
+    if revisited.is_some() {
+        plan.diff = diff(given, &plan.items);
+    }
     Ok(Replanned { plan, dynamic })
 }

@@ -70,6 +70,7 @@ fn request<'a>(m: &'a Mission, stack: &'a [StackItem]) -> Replan<'a> {
         strategy: Strategy::Bisection,
         seed: 11,
         target_pending_s: None,
+        revisit: false,
     }
 }
 

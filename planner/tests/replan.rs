@@ -58,6 +58,7 @@ fn request<'a>(m: &'a Mission, stack: &'a [planner::StackItem], seed: u64) -> Re
         strategy: Strategy::Bisection,
         seed,
         target_pending_s: None,
+        revisit: false,
     }
 }
 
@@ -162,6 +163,7 @@ fn the_time_a_waypoint_has_been_pending_uses_up_the_delay_a_route_may_take_to_re
             current_index: 0,
             strategy: Strategy::None,
             target_pending_s: pending,
+            revisit: false,
             ..request(&m, &stack, 5)
         };
         replan(&r, Dynamic::Field(&Ring), &cfg, &Termination::none())

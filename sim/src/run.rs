@@ -194,6 +194,7 @@ pub fn run_with_streams(
             let view = View {
                 t_s: t,
                 own: ap.state,
+                own_track: &judge_tel,
                 aircraft: &cfg.aircraft,
                 mission: m,
                 stack: &stack,

@@ -99,6 +99,9 @@ pub struct PlanInputs {
     /// from `current_index` on has been the target: carried from the base revision while
     /// the target stays the same ([`planner::Replan::target_pending_s`]). `None`: unknown.
     pub target_since_s: Option<f64>,
+    /// The mission waypoint just passed too wide, flown again by this plan
+    /// ([`planner::Replan::revisit`]; found by [`missed_waypoint`] when the plan was asked).
+    pub revisit: Option<planner::Missed>,
 }
 
 /// The mission's own waypoints as a stack.
@@ -197,25 +200,7 @@ pub fn compute(
         .map(|ms| started + std::time::Duration::from_millis(ms));
     let frame = mission.frame();
     let pm = mission.to_planner();
-    // Stack in ENU: mission items take the mission's own coordinates (no round trip).
-    let stack: Vec<StackItem> = inputs
-        .stack
-        .iter()
-        .map(|w| match (w.kind, w.mission_index) {
-            (ItemKind::Mission, Some(i)) if i < pm.waypoints.len() => {
-                StackItem::mission(i, pm.waypoints[i].p_m, pm.waypoints[i].alt_m)
-            }
-            (ItemKind::Search, _) => {
-                StackItem::search(frame.to_enu(w.at.lat, w.at.lon), w.at.alt_msl_m)
-            }
-            _ => StackItem::avoid(frame.to_enu(w.at.lat, w.at.lon), w.at.alt_msl_m),
-        })
-        .collect();
-    let base: Vec<StackItem> = if stack.is_empty() {
-        planner::stack::mission_stack(&pm)
-    } else {
-        stack
-    };
+    let base = enu_stack(&pm, &frame, &inputs.stack);
     let s = &inputs.start.at;
     let state = planner::AircraftState {
         p_m: frame.to_enu(s.lat_deg, s.lon_deg),
@@ -262,6 +247,7 @@ pub fn compute(
         strategy: inputs.strategy,
         seed: inputs.seed,
         target_pending_s: inputs.target_since_s.map(|since| (s.t_s - since).max(0.0)),
+        revisit: inputs.revisit.is_some(),
     };
     let mut until = planner::Termination::deadline(deadline);
     if let Some(flag) = cancel {
@@ -403,6 +389,15 @@ fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
             ),
         });
     }
+    if let Some(m) = inputs.revisit {
+        w.push(PlanWarning {
+            code: "waypoint_revisited".into(),
+            message: format!(
+                "mission waypoint {} (stack item {}) was passed {:.1} m away, wider than the judges' 100 ft (30.48 m): the plan flies it again before the rest (once per waypoint; \"revisit_missed\": false turns this off)",
+                m.mission_index, m.stack_index, m.closest_m
+            ),
+        });
+    }
     w
 }
 
@@ -414,6 +409,54 @@ pub fn planned_speed_mps(start: &Start, cruise_mps: f64) -> f64 {
         ..planner::Aircraft::default()
     }
     .route_speed_mps(start.at.speed_mps.unwrap_or(0.0))
+}
+
+/// `stack` in ENU (empty: the mission's waypoints); mission items take the mission's own
+/// coordinates (no round trip through degrees).
+fn enu_stack(
+    pm: &planner::Mission,
+    frame: &wire::geodesy::LocalFrame,
+    stack: &[GeoItem],
+) -> Vec<StackItem> {
+    if stack.is_empty() {
+        return planner::stack::mission_stack(pm);
+    }
+    stack
+        .iter()
+        .map(|w| match (w.kind, w.mission_index) {
+            (ItemKind::Mission, Some(i)) if i < pm.waypoints.len() => {
+                StackItem::mission(i, pm.waypoints[i].p_m, pm.waypoints[i].alt_m)
+            }
+            (ItemKind::Search, _) => {
+                StackItem::search(frame.to_enu(w.at.lat, w.at.lon), w.at.alt_msl_m)
+            }
+            _ => StackItem::avoid(frame.to_enu(w.at.lat, w.at.lon), w.at.alt_msl_m),
+        })
+        .collect()
+}
+
+/// The mission waypoint before `current_index` in `stack` (empty: the mission's), pursued
+/// at the last plan (`pursued`: its index, since when), that `telemetry` (oldest first,
+/// since then) shows the aircraft has gone past farther than the judges' 100 ft
+/// ([`planner::revisit::missed_waypoint`]).
+pub fn missed_waypoint(
+    mission: &Mission,
+    stack: &[GeoItem],
+    current_index: usize,
+    pursued: (usize, f64),
+    telemetry: &[TelemetryRow],
+) -> Option<planner::Missed> {
+    let frame = mission.frame();
+    let base = enu_stack(&mission.to_planner(), &frame, stack);
+    let track: Vec<planner::TrackPoint> = telemetry
+        .iter()
+        .map(|r| planner::TrackPoint {
+            t_s: r.t_s,
+            p_m: frame.to_enu(r.lat_deg, r.lon_deg),
+            alt_m: r.alt_msl_m,
+        })
+        .collect();
+    planner::missed_waypoint(&base, current_index, pursued, &track)
 }
 
 /// A new seed that survives JSON numbers in every client (< 2^53).

@@ -67,6 +67,21 @@ pub struct InputsRecord {
     /// it was kept: replayed as unknown, as they were planned).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target_since_s: Option<f64>,
+    /// The missed waypoint the plan flew again (absent: none, as in plans stored before
+    /// revisits).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub revisit: Option<StoredMissed>,
+}
+
+/// The stored form of [`planner::Missed`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StoredMissed {
+    /// Its index in the base stack.
+    pub stack_index: usize,
+    /// Its index in the mission's waypoints.
+    pub mission_index: usize,
+    /// The telemetry's closest approach to it, metres.
+    pub closest_m: f64,
 }
 
 /// A stored strategy name.
@@ -164,6 +179,11 @@ impl InputsRecord {
                 ),
             },
             target_since_s: inputs.target_since_s,
+            revisit: inputs.revisit.map(|m| StoredMissed {
+                stack_index: m.stack_index,
+                mission_index: m.mission_index,
+                closest_m: m.closest_m,
+            }),
         }
     }
 
@@ -215,6 +235,11 @@ impl InputsRecord {
                 ),
             },
             target_since_s: self.target_since_s,
+            revisit: self.revisit.map(|m| planner::Missed {
+                stack_index: m.stack_index,
+                mission_index: m.mission_index,
+                closest_m: m.closest_m,
+            }),
         })
     }
 
@@ -388,6 +413,7 @@ mod tests {
             },
             observations,
             target_since_s: None,
+            revisit: None,
         }
     }
 
@@ -463,6 +489,11 @@ mod tests {
         let inputs = PlanInputs {
             turn_radius_assumed: true,
             acceptance_radius_m: Some(30.0),
+            revisit: Some(planner::Missed {
+                stack_index: 0,
+                mission_index: 0,
+                closest_m: 41.25,
+            }),
             ..expected(Observations::Through(9))
         };
         let text = InputsRecord::of(&inputs).to_json().unwrap();
@@ -471,11 +502,19 @@ mod tests {
             (&v["turn_radius_assumed"], &v["acceptance_radius_m"]),
             (&json!(true), &json!(30.0))
         );
+        assert_eq!(
+            v["revisit"],
+            json!({"stack_index": 0, "mission_index": 0, "closest_m": 41.25})
+        );
         assert_eq!(stored_inputs(&row(&text)).unwrap(), inputs);
         let plain = InputsRecord::of(&expected(Observations::Through(9)))
             .to_json()
             .unwrap();
-        assert!(!plain.contains("turn_radius_assumed") && !plain.contains("acceptance"));
+        assert!(
+            !plain.contains("turn_radius_assumed")
+                && !plain.contains("acceptance")
+                && !plain.contains("revisit")
+        );
     }
 
     #[test]

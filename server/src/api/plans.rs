@@ -15,8 +15,8 @@ use utoipa::ToSchema;
 use utoipa_axum::{router::OpenApiRouter, routes};
 
 use super::plan_compute::{
-    CancelOnDrop, GeoItem, Observations, PlanInputs, Start, compute, new_seed, plan_out,
-    planned_speed_mps, stack_start, stored_snapshot,
+    CancelOnDrop, GeoItem, Observations, PlanInputs, Start, compute, missed_waypoint, new_seed,
+    plan_out, planned_speed_mps, stack_start, stored_snapshot,
 };
 use super::plan_inputs::{InputsRecord, stored_inputs};
 use super::plan_record::{PlanRecord, stored_plan_out};
@@ -100,6 +100,10 @@ pub fn default_turn_radius_m(speed_mps: f64) -> f64 {
 /// ground speed when the newest does not report one ([`with_track_speed`]).
 const TRACK_SAMPLES: u32 = 32;
 
+/// At most this many telemetry samples show whether a waypoint was missed
+/// ([`planner::revisit`]): 20 minutes at 5 Hz of pursuing one waypoint.
+const REVISIT_SAMPLES: u32 = 6000;
+
 /// A ground speed is estimated over the newest samples spanning at least this long, seconds...
 const TRACK_MIN_S: f64 = 0.5;
 /// ... and at most this long (the oldest sample within it is used).
@@ -176,6 +180,11 @@ pub struct PlanBody {
     #[schema(minimum = 0, maximum = 60000)]
     #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub max_map_age_ms: Option<u64>,
+    /// Fly a missed mission waypoint again (default true): when the aircraft's telemetry
+    /// shows it has just gone past the item before `current_index`, a mission waypoint,
+    /// farther than the judges' 100 ft (30.48 m), the plan flies that item again before the
+    /// rest (once per waypoint) and warns `waypoint_revisited`. `false`: never.
+    pub revisit_missed: Option<bool>,
 }
 
 /// Plan a revised waypoint stack.
@@ -314,6 +323,19 @@ async fn create_plan(
         (Some(_), _) => Some(start.at.t_s),
         (None, _) => None,
     };
+    // The waypoint the base revision pursued, passed too wide since (none before the first
+    // plan: nothing says when the mission's own waypoints became the target). The track
+    // is read only when the autopilot has just gone past that waypoint.
+    let revisit = match base_target {
+        Some((k, since)) if body.revisit_missed.unwrap_or(true) && current_index == k + 1 => {
+            let track = state
+                .store
+                .list_telemetry_since(&id, since - planner::revisit::TRACK_GAP_S, REVISIT_SAMPLES)
+                .await?;
+            missed_waypoint(&mission, &stack, current_index, (k, since), &track)
+        }
+        _ => None,
+    };
     let max_age = body.max_map_age_ms.map(std::time::Duration::from_millis);
     let (snap, lag) = state.live.plan_snapshot(&state, &mission, max_age).await?;
     timing.lap("snapshot");
@@ -333,6 +355,7 @@ async fn create_plan(
         start,
         observations: Observations::Through(snap.seq),
         target_since_s,
+        revisit,
     };
     let (m2, in2) = (mission.clone(), inputs.clone());
     let cancel = CancelOnDrop::default();

@@ -206,6 +206,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
         start,
         observations: Observations::Given(observations),
         target_since_s: None,
+        revisit: None,
     };
     let computed = match compute(&m, &inputs, &snap, None) {
         Ok(c) => c,

@@ -437,6 +437,32 @@ impl Store {
         let rows = self.list_telemetry_written(mission_id, last).await?;
         Ok(rows.into_iter().map(|(row, _writer)| row).collect())
     }
+
+    /// A mission's aircraft telemetry at or after `since_s` (seconds), ordered by time: the
+    /// newest `last` samples of it.
+    #[tracing::instrument(skip(self))]
+    pub async fn list_telemetry_since(
+        &self,
+        mission_id: &MissionId,
+        since_s: f64,
+        last: u32,
+    ) -> Result<Vec<TelemetryRow>, sqlx::Error> {
+        let rows = sqlx::query(
+            "SELECT t_us, lat_deg, lon_deg, alt_msl_m, heading_deg, speed_mps FROM aircraft_telemetry \
+             WHERE mission_id = $1 AND t_us >= $2 ORDER BY t_us DESC LIMIT $3",
+        )
+        .bind(mission_id.to_string())
+        .bind(to_us(since_s))
+        .bind(i64::from(last))
+        .fetch_all(&self.read)
+        .await?;
+        let mut out = rows
+            .iter()
+            .map(writers::telemetry_row)
+            .collect::<Result<Vec<_>, sqlx::Error>>()?;
+        out.reverse();
+        Ok(out)
+    }
 }
 
 /// The head of a telemetry insert (`values_sql` adds the rows) and its columns per row, in

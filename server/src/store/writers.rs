@@ -70,21 +70,22 @@ impl Store {
         .await?;
         let mut out = rows
             .iter()
-            .map(|r| {
-                Ok((
-                    TelemetryRow {
-                        t_s: from_us(r.try_get(0)?),
-                        lat_deg: r.try_get(1)?,
-                        lon_deg: r.try_get(2)?,
-                        alt_msl_m: r.try_get(3)?,
-                        heading_deg: r.try_get(4)?,
-                        speed_mps: r.try_get(5)?,
-                    },
-                    r.try_get(6)?,
-                ))
-            })
+            .map(|r| Ok((telemetry_row(r)?, r.try_get(6)?)))
             .collect::<Result<Vec<_>, sqlx::Error>>()?;
         out.reverse();
         Ok(out)
     }
+}
+
+/// A telemetry sample from the columns `t_us, lat_deg, lon_deg, alt_msl_m, heading_deg,
+/// speed_mps` (in that order, first).
+pub(crate) fn telemetry_row(r: &sqlx::any::AnyRow) -> Result<TelemetryRow, sqlx::Error> {
+    Ok(TelemetryRow {
+        t_s: from_us(r.try_get(0)?),
+        lat_deg: r.try_get(1)?,
+        lon_deg: r.try_get(2)?,
+        alt_msl_m: r.try_get(3)?,
+        heading_deg: r.try_get(4)?,
+        speed_mps: r.try_get(5)?,
+    })
 }

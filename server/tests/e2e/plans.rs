@@ -17,6 +17,7 @@ both_stores!(
     the_search_area_ladder_covers_the_search_grid_with_validated_parameters,
     the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_revision,
     a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows,
+    a_waypoint_passed_wider_than_100_ft_is_flown_again_once,
 );
 
 /// Time of obstacle "0"'s first observation, Unix seconds.
@@ -702,4 +703,140 @@ fn turn_radius_warning(plan: &Value) -> Option<String> {
         .iter()
         .find(|w| w["code"] == "turn_radius_assumed")
         .map(|w| w["message"].as_str().expect("message").to_string())
+}
+
+/// Posts the aircraft flying north at 20 m/s at 5 Hz, `east_m` east of `at` (a waypoint),
+/// samples `samples` of the flight from 300 m south of it (sample 0, at `t0`) to 100 m north
+/// of it (sample 100).
+async fn fly_past(
+    app: &App,
+    id: &str,
+    at: &Value,
+    east_m: f64,
+    t0: f64,
+    samples: std::ops::RangeInclusive<u32>,
+) {
+    let (lat, lon, alt) = (num(at, "/lat"), num(at, "/lon"), num(at, "/alt_msl_m"));
+    // Metres per degree at this latitude (WGS-84, to well under 0.1%).
+    let m_lat = 111_132.9 - 559.8 * (2.0 * lat.to_radians()).cos();
+    let m_lon = 111_412.8 * lat.to_radians().cos();
+    let track: Vec<Value> = samples
+        .map(|k| {
+            let north = -300.0 + 4.0 * f64::from(k);
+            json!({"t": t0 + 0.2 * f64::from(k), "lat": lat + north / m_lat,
+                   "lon": lon + east_m / m_lon, "alt_msl_m": alt, "heading_deg": 0.0,
+                   "speed_mps": 20.0})
+        })
+        .collect();
+    let r = app
+        .post_json(&format!("/api/v1/missions/{id}/telemetry"), &json!(track))
+        .await;
+    assert_eq!(r.status(), 202);
+}
+
+/// The message of a plan's `waypoint_revisited` warning, if it has one.
+fn revisit_warning(plan: &Value) -> Option<String> {
+    plan["warnings"]
+        .as_array()
+        .expect("warnings")
+        .iter()
+        .find(|w| w["code"] == "waypoint_revisited")
+        .map(|w| w["message"].as_str().expect("message").to_string())
+}
+
+/// The autopilot went past the waypoint the last plan pursued 40 m off (it crossed the
+/// waypoint's finish line): the judges count 100 ft, so the next plan flies that waypoint
+/// again (a copy of it is the next mission item, after any turn-back item; warning
+/// `waypoint_revisited` with the distance),
+/// replays identically, and does not fly it a third time. Passed within 100 ft, or with
+/// `"revisit_missed": false`, the plan goes on.
+async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_once(app: App) {
+    // A Webster mission, the aircraft 300 m south of waypoint 1 `east_m` east of it, a
+    // first plan toward waypoint 1, then the rest of the pass.
+    let pass = |east_m: f64| {
+        let app = &app;
+        async move {
+            let id = app.create_webster_mission().await;
+            let m = app.get_json(&format!("/api/v1/missions/{id}")).await;
+            let wp = m["waypoints"][1].clone();
+            fly_past(app, &id, &wp, east_m, T0, 0..=0).await;
+            let p1 = plan(app, &id, json!({"seed": 1, "current_index": 1})).await;
+            let k = next_mission_item(&p1, 1);
+            assert_eq!(p1["waypoints"][k]["mission_index"], 1, "{p1}");
+            fly_past(app, &id, &wp, east_m, T0, 1..=100).await;
+            (id, wp, k)
+        }
+    };
+    let same_place = |a: &Value, b: &Value| {
+        a["mission_index"] == 1 && a["lat"] == b["lat"] && a["lon"] == b["lon"]
+    };
+    let (id, wp, k) = pass(40.0).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": k + 1});
+    let p2 = plan(&app, &id, body).await;
+    let message = revisit_warning(&p2).expect("a waypoint_revisited warning");
+    let passed: f64 = message
+        .split("passed ")
+        .nth(1)
+        .and_then(|m| m.split(" m").next())
+        .and_then(|m| m.parse().ok())
+        .unwrap_or_else(|| panic!("a distance in: {message}"));
+    assert!((passed - 40.0).abs() < 0.5, "{message}");
+    let wps = p2["waypoints"].as_array().unwrap();
+    assert!(
+        same_place(&wps[k], &wp),
+        "the items before the current one stay"
+    );
+    let copy = next_mission_item(&p2, k + 1);
+    assert!(
+        same_place(&wps[copy], &wp),
+        "a copy of it is flown next: {p2}"
+    );
+    assert!(
+        wps[k + 1..copy].iter().all(|w| w["kind"] == "avoid"),
+        "only turn-back items before the copy: {p2}"
+    );
+    assert_eq!(p2["current_index"], k + 1);
+    assert_eq!(p2["diff"]["first_changed"], k + 1, "{}", p2["diff"]);
+    let replay = app
+        .post_ok(
+            &format!(
+                "/api/v1/missions/{id}/plans/{}/replay",
+                p2["plan_id"].as_str().unwrap()
+            ),
+            &json!({}),
+        )
+        .await;
+    assert_eq!(replay["identical"], true, "{replay}");
+    // Missed again: not a third time.
+    fly_past(&app, &id, &wp, 40.0, T0 + 30.0, 0..=100).await;
+    let body = json!({"seed": 3, "base_revision": 2, "current_index": copy + 1});
+    let p3 = plan(&app, &id, body).await;
+    assert_eq!(revisit_warning(&p3), None, "{}", p3["warnings"]);
+    let copies = p3["waypoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|w| same_place(w, &wp))
+        .count();
+    assert_eq!(copies, 2, "{p3}");
+
+    // Within 100 ft (25 m off): captured, nothing to fly again.
+    let (id, wp, k) = pass(25.0).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": k + 1});
+    let near = plan(&app, &id, body).await;
+    assert_eq!(revisit_warning(&near), None, "{}", near["warnings"]);
+    assert!(!same_place(
+        &near["waypoints"][next_mission_item(&near, k + 1)],
+        &wp
+    ));
+    // 40 m off, but the client turned revisits off.
+    let (id, wp, k) = pass(40.0).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": k + 1,
+                      "revisit_missed": false});
+    let off = plan(&app, &id, body).await;
+    assert_eq!(revisit_warning(&off), None, "{}", off["warnings"]);
+    assert!(!same_place(
+        &off["waypoints"][next_mission_item(&off, k + 1)],
+        &wp
+    ));
 }

@@ -95,7 +95,6 @@ impl Strategy for Bisection {
         let live = planner::live_map(&self.predictor, view.mission, &self.config);
         let obstacles: Vec<predictor::ObstacleSummary> = self.predictor.obstacles().collect();
         self.live_ms = Some(started.elapsed().as_secs_f64() * 1e3);
-        let pending = self.clock.pending_s(view);
         match live {
             Ok(Some(live)) => super::replan_command(
                 view,
@@ -105,18 +104,22 @@ impl Strategy for Bisection {
                 },
                 &self.config,
                 seed,
-                pending,
+                &mut self.clock,
             ),
-            Ok(None) => {
-                super::replan_command(view, planner::Dynamic::None, &self.config, seed, pending)
-            }
+            Ok(None) => super::replan_command(
+                view,
+                planner::Dynamic::None,
+                &self.config,
+                seed,
+                &mut self.clock,
+            ),
             // A degenerate mission: the plan reports it (and the stack is kept).
             Err(_) => super::replan_command(
                 view,
                 planner::Dynamic::Predictor(&self.predictor),
                 &self.config,
                 seed,
-                pending,
+                &mut self.clock,
             ),
         }
     }

@@ -30,6 +30,9 @@ pub struct View<'a> {
     pub t_s: f64,
     /// The aircraft's own state (its autopilot knows it).
     pub own: AircraftState,
+    /// Its positions as sent to the judges `(t, ENU x, y, altitude)`, oldest first (what a
+    /// ground station has kept).
+    pub own_track: &'a [(f64, [f64; 3])],
     /// Aircraft performance.
     pub aircraft: &'a AircraftParams,
     /// The mission (fly zone, waypoints, cylinders: all given by the judges up front).
@@ -227,12 +230,17 @@ impl StrategyKind {
     }
 }
 
-/// How long the stack's next fixed item has been the target, kept across calls as the
-/// server keeps it across plan revisions ([`planner::Replan::target_pending_s`]).
+/// What the server keeps across plan revisions, kept across calls the same way: since when
+/// the stack's next fixed item has been the target ([`planner::Replan::target_pending_s`],
+/// and the evidence for flying a missed waypoint again, [`planner::revisit`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TargetClock {
     /// The next fixed item (its position, bit for bit) and since when, mission seconds.
     target: Option<([u64; 2], f64)>,
+}
+
+fn position_bits(i: &planner::StackItem) -> [u64; 2] {
+    [i.p_m[0].to_bits(), i.p_m[1].to_bits()]
 }
 
 impl TargetClock {
@@ -243,7 +251,7 @@ impl TargetClock {
         let next = stack.items[stack.current.min(stack.items.len())..]
             .iter()
             .find(|i| i.is_fixed())
-            .map(|i| [i.p_m[0].to_bits(), i.p_m[1].to_bits()]);
+            .map(position_bits);
         self.target = match (next, self.target) {
             (Some(k), Some((old, since))) if k == old => Some((k, since)),
             (Some(k), _) => Some((k, view.t_s)),
@@ -251,19 +259,44 @@ impl TargetClock {
         };
         self.target.map(|(_, since)| view.t_s - since)
     }
+
+    /// The mission waypoint `view`'s autopilot has just gone past too wide
+    /// ([`planner::missed_waypoint`]): the item before the current one, when it was the
+    /// target at the last call, and the track since it became the target. Call before
+    /// [`TargetClock::pending_s`].
+    pub fn missed(&self, view: &View<'_>) -> Option<planner::Missed> {
+        let (bits, since) = self.target?;
+        let k = view.stack.current.checked_sub(1)?;
+        if position_bits(view.stack.items.get(k)?) != bits {
+            return None;
+        }
+        let from = view
+            .own_track
+            .partition_point(|(t, _)| *t < since - planner::revisit::TRACK_GAP_S);
+        let track: Vec<planner::TrackPoint> = view.own_track[from..]
+            .iter()
+            .map(|&(t_s, p)| planner::TrackPoint {
+                t_s,
+                p_m: [p[0], p[1]],
+                alt_m: p[2],
+            })
+            .collect();
+        planner::missed_waypoint(&view.stack.items, view.stack.current, (k, since), &track)
+    }
 }
 
 /// Replans `view`'s stack through the server's seam ([`planner::replan`]) with `dynamic`
-/// risk, `cfg` and plan seed `seed`, without a deadline (reproducible), the next fixed
-/// item having been the target for `pending_s`: the new stack, or the old one kept on bad
-/// input (a non-finite state).
+/// risk, `cfg` and plan seed `seed`, without a deadline (reproducible), carrying `clock`
+/// from the last call as the server carries it from the base revision: the new stack, or
+/// the old one kept on bad input (a non-finite state).
 pub fn replan_command(
     view: &View<'_>,
     dynamic: planner::Dynamic<'_>,
     cfg: &planner::ReplanConfig,
     seed: u64,
-    pending_s: Option<f64>,
+    clock: &mut TargetClock,
 ) -> Command {
+    let revisit = clock.missed(view).is_some();
     let r = planner::Replan {
         mission: view.mission,
         aircraft: view.aircraft.planner_aircraft(),
@@ -272,7 +305,8 @@ pub fn replan_command(
         current_index: view.stack.current,
         strategy: planner::Strategy::Bisection,
         seed,
-        target_pending_s: pending_s,
+        target_pending_s: clock.pending_s(view),
+        revisit,
     };
     // The service is told the autopilot's acceptance radius (`aircraft.acceptance_radius_m`).
     let mut cfg = cfg.clone();
@@ -335,5 +369,73 @@ where
             Some(first) => first(view),
             None => self.then.decide(view),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mission::StackItem;
+
+    /// A view at `t_s` of `stack`, the aircraft having flown `track` (its last point now).
+    fn view<'a>(
+        t_s: f64,
+        stack: &'a Stack,
+        track: &'a [(f64, [f64; 3])],
+        mission: &'a Mission,
+        aircraft: &'a AircraftParams,
+    ) -> View<'a> {
+        let p_m = track.last().map_or([0.0; 3], |(_, p)| *p);
+        View {
+            t_s,
+            own: AircraftState {
+                t_s,
+                p_m,
+                heading_rad: std::f64::consts::FRAC_PI_2,
+                speed_mps: 20.0,
+            },
+            own_track: track,
+            aircraft,
+            mission,
+            stack,
+            tracks: &[],
+            scan: None,
+            truth: &[],
+        }
+    }
+
+    #[test]
+    fn the_clock_flags_a_waypoint_pursued_at_the_last_call_and_passed_too_wide() {
+        let mission = Mission::default();
+        let aircraft = AircraftParams::default();
+        let items = vec![
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::mission(1, [0.0, 1000.0], 100.0),
+        ];
+        // Northward 40 m east of waypoint 0, at 5 Hz from 200 m south of it.
+        let track: Vec<(f64, [f64; 3])> = (0..=60)
+            .map(|k| {
+                let k = f64::from(k);
+                (0.2 * k, [40.0, -200.0 + 4.0 * k, 100.0])
+            })
+            .collect();
+        let mut clock = TargetClock::default();
+        // The first call: waypoint 0 becomes the target at t = 0.
+        let before = Stack {
+            items: items.clone(),
+            current: 0,
+        };
+        let v0 = view(0.0, &before, &track[..1], &mission, &aircraft);
+        assert_eq!(clock.missed(&v0), None);
+        assert_eq!(clock.pending_s(&v0), Some(0.0));
+        // 12 s later the autopilot has gone on to waypoint 1: missed, 40 m off.
+        let after = Stack { items, current: 1 };
+        let v1 = view(12.0, &after, &track, &mission, &aircraft);
+        let m = clock.missed(&v1).expect("passed 40 m off");
+        assert_eq!((m.stack_index, m.mission_index), (0, 0));
+        assert!((m.closest_m - 40.0).abs() < 1e-9);
+        // Once the clock has moved on to waypoint 1, waypoint 0 is no longer its business.
+        assert_eq!(clock.pending_s(&v1), Some(0.0));
+        assert_eq!(clock.missed(&v1), None);
     }
 }

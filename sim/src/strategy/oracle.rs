@@ -84,13 +84,12 @@ impl Strategy for Oracle {
             alt_hi_m: hi,
         };
         let seed = planner::plan::leg_seed(self.seed, self.calls as usize, 0);
-        let pending = self.clock.pending_s(view);
         super::replan_command(
             view,
             planner::Dynamic::Field(&truth),
             &self.config,
             seed,
-            pending,
+            &mut self.clock,
         )
     }
 }
