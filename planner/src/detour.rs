@@ -69,7 +69,10 @@ impl Default for DetourParams {
 /// by detours through one avoid point, or two (the second halfway between the first and the
 /// target, pushed out to the same side). Every fixed item is kept: the items up to that
 /// last fixed one and from `target` on are unchanged. `from` is the aircraft's position;
-/// `alt_m` the altitude the detour is flown at.
+/// `alt_m` the altitude cylinders are checked at (the lower of the aircraft's and the
+/// target's). The avoid points are at the target's altitude, so an aircraft below it climbs
+/// through the detour rather than arriving low (a detour at its own altitude left the
+/// aircraft 30-60 m under a waypoint it then missed).
 #[allow(clippy::too_many_arguments)]
 pub fn detour_candidates(
     from: Point,
@@ -103,7 +106,11 @@ pub fn detour_candidates(
     let base = to[1].atan2(to[0]);
     let join = |a: Point, b: Point, out: &mut Vec<StackItem>| {
         let leg = prepass_leg(a, b, alt_m, cylinders, zones, prepass);
-        out.extend(leg.inserted.iter().map(|&q| StackItem::avoid(q, alt_m)));
+        out.extend(
+            leg.inserted
+                .iter()
+                .map(|&q| StackItem::avoid(q, goal.alt_m)),
+        );
     };
     let mut out = Vec::new();
     let steps = (params.max_bearing_deg / params.bearing_step_deg).floor() as i32;
@@ -125,7 +132,7 @@ pub fn detour_candidates(
             // One point.
             let mut one = kept.to_vec();
             join(from, w, &mut one);
-            one.push(StackItem::avoid(w, alt_m));
+            one.push(StackItem::avoid(w, goal.alt_m));
             join(w, goal.p_m, &mut one);
             one.extend_from_slice(&tail[target..]);
             out.push(one);
@@ -142,9 +149,9 @@ pub fn detour_candidates(
             {
                 let mut two = kept.to_vec();
                 join(from, w, &mut two);
-                two.push(StackItem::avoid(w, alt_m));
+                two.push(StackItem::avoid(w, goal.alt_m));
                 join(w, w2, &mut two);
-                two.push(StackItem::avoid(w2, alt_m));
+                two.push(StackItem::avoid(w2, goal.alt_m));
                 join(w2, goal.p_m, &mut two);
                 two.extend_from_slice(&tail[target..]);
                 out.push(two);
@@ -380,6 +387,29 @@ mod tests {
         for cand in &c {
             assert!(cand.ends_with(&tail));
             assert!(cand.iter().all(|it| zones.contains(it.p_m)));
+        }
+    }
+
+    #[test]
+    fn detour_points_are_at_the_target_altitude_whatever_the_check_altitude() {
+        // The aircraft at 60 m (the check altitude passed), the target at 120 m: the avoid
+        // points carry 120 m, so the autopilot climbs through the detour.
+        let zones = rectangle(-500.0, -500.0, 500.0, 2000.0);
+        let tail = vec![StackItem::mission(0, [0.0, 1000.0], 120.0)];
+        let c = detour_candidates(
+            [0.0, 0.0],
+            &tail,
+            0,
+            60.0,
+            40.0,
+            &[],
+            &zones,
+            &PrepassParams::default(),
+            &DetourParams::default(),
+        );
+        assert!(!c.is_empty());
+        for cand in &c {
+            assert!(cand.iter().all(|it| it.alt_m == 120.0), "{cand:?}");
         }
     }
 

@@ -85,6 +85,19 @@ impl StackItem {
     pub fn is_fixed(&self) -> bool {
         self.kind != ItemKind::Avoid
     }
+
+    /// The altitude a route is checked at after this item, `low_m` being the one it was
+    /// checked at before it (each leg is checked at the lower of this and the leg's end):
+    /// a fixed item's own altitude (the route is taken to reach it), the lower of `low_m`
+    /// and an avoid item's (an aircraft climbing through a detour toward the next fixed item
+    /// may still be as low as where it began).
+    pub fn low_alt_after(&self, low_m: f64) -> f64 {
+        if self.is_fixed() {
+            self.alt_m
+        } else {
+            low_m.min(self.alt_m)
+        }
+    }
 }
 
 /// A tail rewrite turning one stack into another.
@@ -144,6 +157,26 @@ pub fn mission_stack(mission: &crate::mission::Mission) -> Vec<StackItem> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_detour_is_checked_at_its_lowest_altitude_since_the_last_fixed_item() {
+        let climb = [
+            StackItem::avoid([0.0, 100.0], 120.0),
+            StackItem::avoid([0.0, 200.0], 120.0),
+            StackItem::mission(0, [0.0, 300.0], 120.0),
+            StackItem::avoid([0.0, 400.0], 90.0),
+        ];
+        // From 60 m: 60 through the detour, the waypoint's own after it, then the lower.
+        let mut low = 60.0;
+        let seen: Vec<f64> = climb
+            .iter()
+            .map(|it| {
+                low = it.low_alt_after(low);
+                low
+            })
+            .collect();
+        assert_eq!(seen, vec![60.0, 60.0, 120.0, 90.0]);
+    }
 
     #[test]
     fn equal_stacks_have_an_empty_diff() {

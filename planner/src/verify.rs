@@ -550,7 +550,7 @@ pub fn verify_route_to_beat<'e>(
         t += l / speed_mps;
         acc.out.length_m += l;
         prev = it.p_m;
-        prev_alt = it.alt_m;
+        prev_alt = it.low_alt_after(prev_alt);
         if lost(&acc.out, false) {
             return None;
         }
@@ -716,7 +716,7 @@ fn fly<'e>(
             closest = f64::INFINITY;
             progress.pass(&it);
             leg_from = it.p_m;
-            alt_prev = it.alt_m;
+            alt_prev = it.low_alt_after(alt_prev);
             i += 1;
             if lost(&acc.out) {
                 return;
@@ -928,6 +928,32 @@ mod tests {
             top_m: 200.0,
         }];
         assert!(check(&NoRisk, &inside, &state(0.0), &tail).is_clear(0.05));
+    }
+
+    #[test]
+    fn a_detour_climbing_toward_its_waypoint_is_checked_at_the_altitude_it_began() {
+        // From 100 m up, north through two avoid points at 160 m to a waypoint at 160 m;
+        // a cylinder with its top at 130 m on the leg between the avoid points. The
+        // aircraft may still be below 130 m there (it climbs at its own rate), so the
+        // cylinder counts; with the waypoint itself at 130 m or less it would too, and
+        // with the aircraft already at 160 m it does not.
+        let tail = [
+            StackItem::avoid([0.0, 300.0], 160.0),
+            StackItem::avoid([0.0, 700.0], 160.0),
+            StackItem::mission(0, [0.0, 1000.0], 160.0),
+        ];
+        let cyl = [Cylinder {
+            center_m: [0.0, 500.0],
+            radius_m: 20.0,
+            top_m: 130.0,
+        }];
+        let v = check(&NoRisk, &cyl, &state(0.0), &tail);
+        assert!(v.cylinder_hits >= 1, "{v:?}");
+        let high = AircraftState {
+            alt_m: 160.0,
+            ..state(0.0)
+        };
+        assert_eq!(check(&NoRisk, &cyl, &high, &tail).cylinder_hits, 0);
     }
 
     proptest::proptest! {

@@ -103,7 +103,8 @@ pub(super) fn first_fixed_after_conflict(
 }
 
 /// Risk of flying from the aircraft state through `tail`, each leg at the lower of its
-/// ends' altitudes.
+/// ends' altitudes (through a detour, the lowest since the last fixed item,
+/// [`StackItem::low_alt_after`]).
 pub(super) fn route_risk<'e>(
     env_at: &impl Fn(f64) -> LegEnv<'e>,
     s: &AircraftState,
@@ -124,7 +125,7 @@ pub(super) fn route_risk<'e>(
         total.length_m += r.length_m;
         t = r.end_t_s;
         prev = it.p_m;
-        prev_alt = it.alt_m;
+        prev_alt = it.low_alt_after(prev_alt);
     }
     total.end_t_s = t;
     total
