@@ -4,7 +4,7 @@
 use sqlx::Row;
 
 use crate::store::{Store, TelemetryRow};
-use crate::time::{from_us, to_us};
+use crate::time::to_us;
 use wire::ids::MissionId;
 
 /// Interop numbers given to missions without an interop id start above this (judges'
@@ -87,14 +87,7 @@ impl Store {
             .map(|r| {
                 Ok(Pending {
                     mission_id: MissionId::from(r.try_get::<String, _>(0)?),
-                    sample: TelemetryRow {
-                        t_s: from_us(r.try_get(1)?),
-                        lat_deg: r.try_get(2)?,
-                        lon_deg: r.try_get(3)?,
-                        alt_msl_m: r.try_get(4)?,
-                        heading_deg: r.try_get(5)?,
-                        speed_mps: r.try_get(6)?,
-                    },
+                    sample: crate::store::writers::telemetry_row_at(r, 1)?,
                 })
             })
             .collect()

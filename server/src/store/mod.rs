@@ -458,7 +458,7 @@ impl Store {
         .await?;
         let mut out = rows
             .iter()
-            .map(writers::telemetry_row)
+            .map(|r| writers::telemetry_row_at(r, 0))
             .collect::<Result<Vec<_>, sqlx::Error>>()?;
         out.reverse();
         Ok(out)

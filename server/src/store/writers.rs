@@ -70,7 +70,7 @@ impl Store {
         .await?;
         let mut out = rows
             .iter()
-            .map(|r| Ok((telemetry_row(r)?, r.try_get(6)?)))
+            .map(|r| Ok((telemetry_row_at(r, 0)?, r.try_get(6)?)))
             .collect::<Result<Vec<_>, sqlx::Error>>()?;
         out.reverse();
         Ok(out)
@@ -78,14 +78,17 @@ impl Store {
 }
 
 /// A telemetry sample from the columns `t_us, lat_deg, lon_deg, alt_msl_m, heading_deg,
-/// speed_mps` (in that order, first).
-pub(crate) fn telemetry_row(r: &sqlx::any::AnyRow) -> Result<TelemetryRow, sqlx::Error> {
+/// speed_mps`, in that order from column `first`.
+pub(crate) fn telemetry_row_at(
+    r: &sqlx::any::AnyRow,
+    first: usize,
+) -> Result<TelemetryRow, sqlx::Error> {
     Ok(TelemetryRow {
-        t_s: from_us(r.try_get(0)?),
-        lat_deg: r.try_get(1)?,
-        lon_deg: r.try_get(2)?,
-        alt_msl_m: r.try_get(3)?,
-        heading_deg: r.try_get(4)?,
-        speed_mps: r.try_get(5)?,
+        t_s: from_us(r.try_get(first)?),
+        lat_deg: r.try_get(first + 1)?,
+        lon_deg: r.try_get(first + 2)?,
+        alt_msl_m: r.try_get(first + 3)?,
+        heading_deg: r.try_get(first + 4)?,
+        speed_mps: r.try_get(first + 5)?,
     })
 }

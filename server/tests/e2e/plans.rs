@@ -654,7 +654,7 @@ async fn a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows
     assert_eq!(num(&first, "/start/t"), T0 + 2.0);
     // v^2 / (g tan 30 deg) at the estimated speed (about 39.7 m at 15 m/s).
     let radius = v * v / (9.806_65 * 30f64.to_radians().tan());
-    let assumed = turn_radius_warning(&first).expect("a turn_radius_assumed warning");
+    let assumed = warning(&first, "turn_radius_assumed").expect("a turn_radius_assumed warning");
     assert!(
         assumed.contains(&format!("{radius:.1} m")),
         "{assumed} (expected {radius:.1} m)"
@@ -665,7 +665,12 @@ async fn a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows
         json!({"seed": 3, "current_index": 1, "aircraft": {"turn_radius_m": 35.0}}),
     )
     .await;
-    assert_eq!(turn_radius_warning(&given), None, "{}", given["warnings"]);
+    assert_eq!(
+        warning(&given, "turn_radius_assumed"),
+        None,
+        "{}",
+        given["warnings"]
+    );
 
     // The aircraft now reports its speed: that wins.
     let (lat, lon) = north(33.0);
@@ -679,30 +684,35 @@ async fn a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows
     assert_eq!(r.status(), 202);
     let second = plan(&app, &id, json!({"seed": 3})).await;
     assert_eq!(num(&second, "/start/speed_mps"), 18.0);
-    let assumed = turn_radius_warning(&second).expect("a turn_radius_assumed warning");
+    let assumed = warning(&second, "turn_radius_assumed").expect("a turn_radius_assumed warning");
     assert!(assumed.contains("57.2 m"), "{assumed}");
 
     // The first plan replays from what it used, the estimated speed included.
+    assert_replays_identically(&app, &id, &first).await;
+}
+
+/// The message of a plan's warning `code`, if it has one.
+fn warning(plan: &Value, code: &str) -> Option<String> {
+    plan["warnings"]
+        .as_array()
+        .expect("warnings")
+        .iter()
+        .find(|w| w["code"] == code)
+        .map(|w| w["message"].as_str().expect("message").to_string())
+}
+
+/// Asserts that the stored `plan` replays identically.
+async fn assert_replays_identically(app: &App, id: &str, plan: &Value) {
     let replay = app
         .post_ok(
             &format!(
                 "/api/v1/missions/{id}/plans/{}/replay",
-                first["plan_id"].as_str().unwrap()
+                plan["plan_id"].as_str().unwrap()
             ),
             &json!({}),
         )
         .await;
     assert_eq!(replay["identical"], true, "{replay}");
-}
-
-/// The message of a plan's `turn_radius_assumed` warning, if it has one.
-fn turn_radius_warning(plan: &Value) -> Option<String> {
-    plan["warnings"]
-        .as_array()
-        .expect("warnings")
-        .iter()
-        .find(|w| w["code"] == "turn_radius_assumed")
-        .map(|w| w["message"].as_str().expect("message").to_string())
 }
 
 /// Posts the aircraft flying north at 20 m/s at 5 Hz, `east_m` east of `at` (a waypoint),
@@ -734,16 +744,6 @@ async fn fly_past(
     assert_eq!(r.status(), 202);
 }
 
-/// The message of a plan's `waypoint_revisited` warning, if it has one.
-fn revisit_warning(plan: &Value) -> Option<String> {
-    plan["warnings"]
-        .as_array()
-        .expect("warnings")
-        .iter()
-        .find(|w| w["code"] == "waypoint_revisited")
-        .map(|w| w["message"].as_str().expect("message").to_string())
-}
-
 /// The autopilot went past the waypoint the last plan pursued 40 m off (it crossed the
 /// waypoint's finish line): the judges count 100 ft, so the next plan flies that waypoint
 /// again (a copy of it is the next mission item, after any turn-back item; warning
@@ -773,7 +773,7 @@ async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_once(app: App) {
     let (id, wp, k) = pass(40.0).await;
     let body = json!({"seed": 2, "base_revision": 1, "current_index": k + 1});
     let p2 = plan(&app, &id, body).await;
-    let message = revisit_warning(&p2).expect("a waypoint_revisited warning");
+    let message = warning(&p2, "waypoint_revisited").expect("a waypoint_revisited warning");
     let passed: f64 = message
         .split("passed ")
         .nth(1)
@@ -797,21 +797,17 @@ async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_once(app: App) {
     );
     assert_eq!(p2["current_index"], k + 1);
     assert_eq!(p2["diff"]["first_changed"], k + 1, "{}", p2["diff"]);
-    let replay = app
-        .post_ok(
-            &format!(
-                "/api/v1/missions/{id}/plans/{}/replay",
-                p2["plan_id"].as_str().unwrap()
-            ),
-            &json!({}),
-        )
-        .await;
-    assert_eq!(replay["identical"], true, "{replay}");
+    assert_replays_identically(&app, &id, &p2).await;
     // Missed again: not a third time.
     fly_past(&app, &id, &wp, 40.0, T0 + 30.0, 0..=100).await;
     let body = json!({"seed": 3, "base_revision": 2, "current_index": copy + 1});
     let p3 = plan(&app, &id, body).await;
-    assert_eq!(revisit_warning(&p3), None, "{}", p3["warnings"]);
+    assert_eq!(
+        warning(&p3, "waypoint_revisited"),
+        None,
+        "{}",
+        p3["warnings"]
+    );
     let copies = p3["waypoints"]
         .as_array()
         .unwrap()
@@ -824,7 +820,12 @@ async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_once(app: App) {
     let (id, wp, k) = pass(25.0).await;
     let body = json!({"seed": 2, "base_revision": 1, "current_index": k + 1});
     let near = plan(&app, &id, body).await;
-    assert_eq!(revisit_warning(&near), None, "{}", near["warnings"]);
+    assert_eq!(
+        warning(&near, "waypoint_revisited"),
+        None,
+        "{}",
+        near["warnings"]
+    );
     assert!(!same_place(
         &near["waypoints"][next_mission_item(&near, k + 1)],
         &wp
@@ -834,7 +835,12 @@ async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_once(app: App) {
     let body = json!({"seed": 2, "base_revision": 1, "current_index": k + 1,
                       "revisit_missed": false});
     let off = plan(&app, &id, body).await;
-    assert_eq!(revisit_warning(&off), None, "{}", off["warnings"]);
+    assert_eq!(
+        warning(&off, "waypoint_revisited"),
+        None,
+        "{}",
+        off["warnings"]
+    );
     assert!(!same_place(
         &off["waypoints"][next_mission_item(&off, k + 1)],
         &wp
