@@ -92,9 +92,17 @@ pub struct Frame {
 }
 
 /// The frames of every observation of one track, kept in step with it.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Default)]
 pub struct Manoeuvres {
     frames: Vec<Option<Frame>>,
+}
+
+impl Clone for Manoeuvres {
+    fn clone(&self) -> Self {
+        Self {
+            frames: crate::track::clone_with_headroom(&self.frames),
+        }
+    }
 }
 
 impl Manoeuvres {

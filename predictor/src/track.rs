@@ -39,11 +39,31 @@ pub enum ObserveOutcome {
 }
 
 /// Observations of one obstacle, sorted by time.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Default)]
 pub struct Track {
     obs: Vec<Observation>,
     flagged: usize,
     duplicates: usize,
+}
+
+impl Clone for Track {
+    fn clone(&self) -> Self {
+        Self {
+            obs: clone_with_headroom(&self.obs),
+            flagged: self.flagged,
+            duplicates: self.duplicates,
+        }
+    }
+}
+
+/// A copy of `v` with room for more elements: a live mission's predictor is cloned for
+/// every observation batch while a snapshot holds it (`Arc::make_mut`), and the clone then
+/// grows by one observation per obstacle. With the capacity of a plain clone (its length)
+/// that first push reallocated and copied the whole history a second time.
+pub(crate) fn clone_with_headroom<T: Clone>(v: &[T]) -> Vec<T> {
+    let mut c = Vec::with_capacity(v.len() + v.len() / 8 + 16);
+    c.extend_from_slice(v);
+    c
 }
 
 /// Positions closer than this (metres) at the same timestamp count as the same observation.
@@ -165,6 +185,24 @@ mod tests {
             alt_m: 50.0,
             radius_m: 10.0,
         }
+    }
+
+    #[test]
+    fn a_cloned_track_takes_its_next_observations_without_copying_its_history_again() {
+        let mut tr = Track::default();
+        for k in 0..1000 {
+            tr.insert(o(f64::from(k) * 0.2, f64::from(k)), 41.0, 2.0);
+        }
+        let mut c = tr.clone();
+        assert_eq!(c.observations(), tr.observations());
+        // Room for 100 more observations in the buffer the clone allocated (a derived
+        // clone has none: its capacity is its length).
+        assert!(c.obs.capacity() >= 1100, "capacity {}", c.obs.capacity());
+        for k in 1000..1100 {
+            c.insert(o(f64::from(k) * 0.2, f64::from(k)), 41.0, 2.0);
+        }
+        assert_eq!(c.len(), 1100);
+        assert_eq!(tr.len(), 1000);
     }
 
     #[test]
