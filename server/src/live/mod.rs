@@ -26,8 +26,9 @@
 //!   waits for the helper.
 //! - **No half-applied batch**: the writer publishes whole batches (`seq` advances by a
 //!   batch at a time); a snapshot holds an `Arc` of the predictor as of that `seq`. The
-//!   writer feeds through `Arc::make_mut`, so a batch arriving while a snapshot holds the
-//!   predictor copies it once (the cost `plan_load` measures).
+//!   writer never changes a copy a snapshot holds: it keeps two copies and feeds the one
+//!   no reader holds, bringing it up to date first ([`writer`], the left-right pattern),
+//!   and copies the predictor only when readers hold both.
 //! - **Read your writes** for `GET .../risk` and `GET .../obstacles`: a read first brings
 //!   the snapshot up to the batches applied when it arrived (waiting for a map build in
 //!   flight); on PostgreSQL it first catches up with the store's newest batch number (one
@@ -64,6 +65,9 @@ pub mod helper;
 pub mod notify;
 pub mod plan_view;
 pub mod snapshot;
+mod writer;
+
+use writer::Writer;
 
 pub use snapshot::{Snapshot, map_config};
 
@@ -147,11 +151,6 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
-struct Writer {
-    predictor: Arc<Predictor>,
-    applied: i64,
-}
-
 /// One mission's live state.
 pub struct MissionLive {
     mission: Arc<Mission>,
@@ -189,10 +188,9 @@ impl MissionLive {
         let empty = Snapshot::empty(&mission);
         Self {
             mission: Arc::new(mission),
-            writer: Arc::new(tokio::sync::Mutex::new(Writer {
-                predictor: Arc::new(Predictor::new(snapshot::predictor_config())),
-                applied: 0,
-            })),
+            writer: Arc::new(tokio::sync::Mutex::new(Writer::new(Predictor::new(
+                snapshot::predictor_config(),
+            )))),
             loaded: AtomicBool::new(false),
             applied: AtomicI64::new(0),
             published: Mutex::new(Arc::new(empty)),
@@ -302,12 +300,12 @@ impl MissionLive {
             if rows.len() > INLINE_FEED_ROWS {
                 w = state
                     .run_cpu(move || {
-                        snapshot::feed(Arc::make_mut(&mut w.predictor), &frame, &rows);
+                        w.feed(&frame, rows);
                         w
                     })
                     .await?;
             } else {
-                snapshot::feed(Arc::make_mut(&mut w.predictor), &frame, &rows);
+                w.feed(&frame, rows);
             }
             w.applied = target;
             self.applied.store(target, Ordering::Release);
@@ -329,11 +327,7 @@ impl MissionLive {
             return Ok(());
         }
         if batch.seq == w.applied + 1 {
-            snapshot::feed(
-                Arc::make_mut(&mut w.predictor),
-                &self.mission.frame(),
-                &batch.stored,
-            );
+            w.feed(&self.mission.frame(), batch.stored.clone());
             w.applied = batch.seq;
             self.applied.store(batch.seq, Ordering::Release);
             self.note_applied(batch.seq);
@@ -408,7 +402,7 @@ impl MissionLive {
         let w = self.writer.lock().await;
         Ok(PredictorView {
             seq: w.applied,
-            predictor: w.predictor.clone(),
+            predictor: w.predictor(),
             frame: self.mission.frame(),
         })
     }
@@ -434,7 +428,7 @@ impl MissionLive {
         let cur = self.published();
         let (predictor, seq) = {
             let w = self.writer.lock().await;
-            (w.predictor.clone(), w.applied)
+            (w.predictor(), w.applied)
         };
         if cur.seq >= seq {
             return Ok(cur);
@@ -486,7 +480,7 @@ impl MissionLive {
             return Ok(());
         };
         let (predictor, seq) = match self.writer.try_lock() {
-            Ok(w) => (w.predictor.clone(), w.applied),
+            Ok(w) => (w.predictor(), w.applied),
             Err(_) => return Ok(()),
         };
         if self.published().seq >= seq {
