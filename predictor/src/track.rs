@@ -58,8 +58,8 @@ impl Clone for Track {
 
 /// A copy of `v` with room for more elements: a live mission's predictor is cloned when
 /// snapshots hold both of the server's copies (its writer's left-right pair), and the
-/// clone then grows by one observation per obstacle. With the capacity of a plain clone (its length)
-/// that first push reallocated and copied the whole history a second time.
+/// clone then grows by one observation per obstacle. With the capacity of a plain clone
+/// (its length) that first push reallocated and copied the whole history a second time.
 pub(crate) fn clone_with_headroom<T: Clone>(v: &[T]) -> Vec<T> {
     let mut c = Vec::with_capacity(v.len() + v.len() / 8 + 16);
     c.extend_from_slice(v);

@@ -300,12 +300,12 @@ impl MissionLive {
             if rows.len() > INLINE_FEED_ROWS {
                 w = state
                     .run_cpu(move || {
-                        w.feed(&frame, rows);
+                        w.feed(&frame, &rows);
                         w
                     })
                     .await?;
             } else {
-                w.feed(&frame, rows);
+                w.feed(&frame, &rows);
             }
             w.applied = target;
             self.applied.store(target, Ordering::Release);
@@ -327,7 +327,7 @@ impl MissionLive {
             return Ok(());
         }
         if batch.seq == w.applied + 1 {
-            w.feed(&self.mission.frame(), batch.stored.clone());
+            w.feed(&self.mission.frame(), &batch.stored);
             w.applied = batch.seq;
             self.applied.store(batch.seq, Ordering::Release);
             self.note_applied(batch.seq);

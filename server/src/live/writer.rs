@@ -27,7 +27,7 @@ use crate::store::ObservationRow;
 /// a mission whose snapshots stopped sharing the predictor needs no spare.
 const SPARE_MAX_BATCHES: usize = 64;
 
-/// How a batch reached the current predictor (for tests and counters).
+/// How a batch reached the current predictor (what the tests check).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Fed {
     /// The current copy was not shared: fed in place.
@@ -69,9 +69,10 @@ impl Writer {
     }
 
     /// Feeds `rows` (one batch or more, in feeding order) to the current predictor.
-    pub(super) fn feed(&mut self, frame: &LocalFrame, rows: Vec<ObservationRow>) -> Fed {
+    pub(super) fn feed(&mut self, frame: &LocalFrame, rows: &[ObservationRow]) -> Fed {
         if let Some(p) = Arc::get_mut(&mut self.predictor) {
-            snapshot::feed(p, frame, &rows);
+            snapshot::feed(p, frame, rows);
+            // The rows are kept only while a spare needs them.
             if let Some(s) = &mut self.spare {
                 if s.behind.len() >= SPARE_MAX_BATCHES {
                     self.spare = None;
@@ -151,7 +152,7 @@ mod tests {
             if k % 5 != 0 {
                 held.clear();
             }
-            seen.push(w.feed(&f, batch(k)));
+            seen.push(w.feed(&f, &batch(k)));
             held.push(snap);
             snapshot::feed(&mut reference, &f, &batch(k));
             assert_eq!(state(&w.predictor()), state(&reference), "after batch {k}");
@@ -165,7 +166,7 @@ mod tests {
         assert!(seen.contains(&Fed::Copied));
         // Nobody holds a copy: in place.
         held.clear();
-        assert_eq!(w.feed(&f, batch(40)), Fed::InPlace);
+        assert_eq!(w.feed(&f, &batch(40)), Fed::InPlace);
         snapshot::feed(&mut reference, &f, &batch(40));
         assert_eq!(state(&w.predictor()), state(&reference));
     }
@@ -174,12 +175,12 @@ mod tests {
     fn a_snapshot_keeps_the_state_it_was_taken_at() {
         let f = frame();
         let mut w = Writer::new(Predictor::new(predictor_config()));
-        w.feed(&f, batch(0));
+        w.feed(&f, &batch(0));
         let before = w.predictor();
         let text = state(&before);
         for k in 1..5 {
             let _snap = w.predictor();
-            w.feed(&f, batch(k));
+            w.feed(&f, &batch(k));
         }
         assert_eq!(state(&before), text);
         assert_ne!(state(&w.predictor()), text);
@@ -190,10 +191,10 @@ mod tests {
         let f = frame();
         let mut w = Writer::new(Predictor::new(predictor_config()));
         let snap = w.predictor();
-        assert_eq!(w.feed(&f, batch(0)), Fed::Copied);
+        assert_eq!(w.feed(&f, &batch(0)), Fed::Copied);
         drop(snap);
         for k in 1..=SPARE_MAX_BATCHES {
-            assert_eq!(w.feed(&f, batch(k)), Fed::InPlace);
+            assert_eq!(w.feed(&f, &batch(k)), Fed::InPlace);
         }
         assert!(w.spare.is_none());
     }
