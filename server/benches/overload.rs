@@ -20,7 +20,8 @@
 //! the time ingest requests spent in the server's handlers (their `Server-Timing` phases),
 //! plans computed
 //! and refused, `/healthz` latency (worst, and seconds over 100 ms), the server's resident
-//! memory (peak and at the end), ingest throughput, and the observations acknowledged
+//! memory (peak and at the end), the SQLite WAL file's size (peak, at the end, and every
+//! 10 s), ingest throughput, and the observations acknowledged
 //! against those counted in the database afterwards (must be equal).
 
 #[allow(dead_code)]
@@ -82,9 +83,15 @@ fn pct(v: &mut [f64], p: f64) -> f64 {
     v[((v.len() as f64 - 1.0) * p).round() as usize]
 }
 
+/// The size of `path` in MB (0 when it does not exist).
+fn file_mb(path: &std::path::Path) -> f64 {
+    std::fs::metadata(path).map_or(0.0, |m| m.len() as f64 / 1e6)
+}
+
 fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
     let dir = tempfile::tempdir().unwrap();
     let db_url = format!("sqlite://{}", dir.path().join("overload.sqlite").display());
+    let wal = dir.path().join("overload.sqlite-wal");
     let mut tokens = Vec::new();
     let admin = if auth {
         let admin = jink_token(&db_url, "bench-admin", "admin");
@@ -109,6 +116,7 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
     let warm = env_or("JINK_OVERLOAD_WARMUP", 1u32) != 0;
     let (health, rss, stored, elapsed, warmup) = rt.block_on({
         let tally = tally.clone();
+        let wal = wal.clone();
         async move {
             let client = reqwest::Client::builder()
                 .pool_max_idle_per_host(4 * clients)
@@ -297,7 +305,8 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
                     }));
                 }
             }
-            // The probe: /healthz and the server's memory every second.
+            // The probe: /healthz, the server's memory and the SQLite WAL's size every
+            // second.
             let probe = {
                 let client = client.clone();
                 let base = base.clone();
@@ -314,7 +323,7 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
                             .await
                             .is_ok_and(|r| r.status() == 200);
                         health.push((ok, sent.elapsed().as_secs_f64() * 1e3));
-                        rss.push(rss_mb(pid));
+                        rss.push((rss_mb(pid), file_mb(&wal)));
                     }
                     (health, rss)
                 })
@@ -335,7 +344,7 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
             (health, rss, stored, elapsed, warmup)
         }
     });
-    let final_rss = rss_mb(pid);
+    let (final_rss, final_wal) = (rss_mb(pid), file_mb(&wal));
     let _ = child.kill();
     let _ = child.wait();
 
@@ -364,7 +373,8 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
         .collect();
     let health_worst = health.iter().map(|h| h.1).fold(0.0, f64::max);
     let health_slow = health.iter().filter(|h| !h.0 || h.1 > 100.0).count();
-    let rss_peak = rss.iter().copied().fold(0.0, f64::max);
+    let rss_peak = rss.iter().map(|x| x.0).fold(0.0, f64::max);
+    let wal_peak = rss.iter().map(|x| x.1).fold(0.0, f64::max);
     println!(
         "overload: auth={} clients={clients} missions={missions} seconds={seconds}",
         if auth {
@@ -421,6 +431,14 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
         health_slow
     );
     println!("  server memory (VmRSS): peak {rss_peak:.0} MB, at the end {final_rss:.0} MB");
+    println!(
+        "  SQLite WAL file: peak {wal_peak:.1} MB, at the end {final_wal:.1} MB (every 10 s: {})",
+        rss.iter()
+            .step_by(10)
+            .map(|x| format!("{:.0}", x.1))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
     println!(
         "  observations: {} acknowledged, {} stored",
         t.acknowledged, stored

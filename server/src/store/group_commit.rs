@@ -14,6 +14,11 @@
 //! for company), so a quiet mission's latency is a single transaction as before. The task
 //! runs on the database writer's runtime ([`super::writer`]).
 //!
+//! Plans go through the same queue: the plans of a group are stored after its ingest, by
+//! one multi-row insert ([`Store::commit_plans`]), so they share one commit. Each plan is
+//! several pages (its row, its inputs and answer, two index entries), and under a flood of
+//! plan requests one commit per plan was most of what the WAL had to take.
+//!
 //! Contracts kept from one transaction per request:
 //! - each batch or telemetry post is all or none, and is acknowledged only after its
 //!   commit;
@@ -23,7 +28,10 @@
 //! - a request for a mission that does not exist gets `None` (404) and does not disturb
 //!   the others;
 //! - if a group's transaction fails, its requests are retried one transaction each, so a
-//!   failure is reported to the request that caused it only.
+//!   failure is reported to the request that caused it only;
+//! - a plan is stored only at a revision still free: of two plans for one revision in the
+//!   same group the first wins and the other is told the revision was taken (409), as if
+//!   each had been its own transaction.
 
 use std::collections::{HashMap, HashSet};
 
@@ -31,6 +39,7 @@ use sqlx::{AssertSqlSafe, Row};
 use tokio::sync::{mpsc, oneshot};
 
 use super::observations::{NewBatch, NewRows, StoredBatch};
+use super::plans::{InsertPlanError, PlanRow};
 use super::writer::WriterThread;
 use super::{
     InsertCounts, ObservationRow, Store, TELEMETRY_COLUMNS, TELEMETRY_INSERT, TelemetryRow,
@@ -88,9 +97,16 @@ impl<R: Clone, T> Request<R, T> {
 type BatchJob = Request<ObservationRow, Option<StoredBatch>>;
 type TelemetryJob = Request<TelemetryRow, Option<InsertCounts>>;
 
+/// One plan to store (see [`Store::commit_plans`]).
+struct PlanJob {
+    row: PlanRow,
+    reply: oneshot::Sender<Result<(), InsertPlanError>>,
+}
+
 enum Job {
     Batch(BatchJob),
     Telemetry(TelemetryJob),
+    Plan(PlanJob),
 }
 
 /// The queue of the group-commit task.
@@ -141,15 +157,29 @@ impl GroupCommit {
         })
         .await
     }
+
+    /// Stores one plan (see [`Store::insert_plan`]); `None` when the task has stopped
+    /// (the caller then writes directly).
+    pub async fn submit_plan(&self, row: &PlanRow) -> Option<Result<(), InsertPlanError>> {
+        let (reply, answer) = oneshot::channel();
+        let job = Job::Plan(PlanJob {
+            row: row.clone(),
+            reply,
+        });
+        self.tx.send(job).await.ok()?;
+        answer.await.ok()
+    }
 }
 
 async fn run(store: Store, mut rx: mpsc::Receiver<Job>) {
     let mut batches: Vec<BatchJob> = Vec::with_capacity(MAX_GROUP);
     let mut posts: Vec<TelemetryJob> = Vec::with_capacity(MAX_GROUP);
+    let mut plans: Vec<PlanJob> = Vec::with_capacity(MAX_GROUP);
     while let Some(first) = rx.recv().await {
         let mut take = |job| match job {
             Job::Batch(j) => batches.push(j),
             Job::Telemetry(j) => posts.push(j),
+            Job::Plan(j) => plans.push(j),
         };
         take(first);
         for _ in 1..MAX_GROUP {
@@ -158,46 +188,81 @@ async fn run(store: Store, mut rx: mpsc::Receiver<Job>) {
                 Err(_) => break,
             }
         }
-        if batches.is_empty() {
-            store_posts(&store, &mut posts).await;
-            continue;
+        // Ingest first: plans of the group are stored after its batches and posts are
+        // answered, by one statement (one commit) of their own.
+        store_ingest(&store, &mut batches, &mut posts).await;
+        store_plans(&store, &mut plans).await;
+    }
+}
+
+/// Stores the group's `plans` with one statement ([`Store::commit_plans`]); if it fails,
+/// each plan is stored by itself so that a failure reaches only the plan that caused it.
+async fn store_plans(store: &Store, plans: &mut Vec<PlanJob>) {
+    if plans.is_empty() {
+        return;
+    }
+    let rows: Vec<PlanRow> = plans.iter().map(|j| j.row.clone()).collect();
+    match store.commit_plans(&rows).await {
+        Ok(answers) => {
+            for (j, a) in plans.drain(..).zip(answers) {
+                let _ = j.reply.send(a);
+            }
         }
-        let new_batches: Vec<NewBatch<'_>> = batches.iter().map(BatchJob::rows).collect();
-        let new_posts: Vec<NewTelemetry<'_>> = posts.iter().map(TelemetryJob::rows).collect();
-        let result = store.commit_group(&new_batches, &new_posts).await;
-        drop((new_batches, new_posts));
-        match result {
-            Ok((stored, counted)) => {
-                for (j, o) in batches.drain(..).zip(stored) {
-                    let _ = j.reply.send(Ok(o));
-                }
-                for (j, o) in posts.drain(..).zip(counted) {
-                    let _ = j.reply.send(Ok(o));
-                }
+        Err(e) => {
+            if plans.len() > 1 {
+                tracing::warn!(error = %e, plans = plans.len(), "plan group insert failed; storing its plans one by one");
             }
-            Err(e) if batches.len() + posts.len() == 1 => {
-                if let Some(j) = batches.pop() {
-                    let _ = j.reply.send(Err(e));
-                } else if let Some(j) = posts.pop() {
-                    let _ = j.reply.send(Err(e));
-                }
+            for j in plans.drain(..) {
+                let _ = j.reply.send(store.insert_plan_here(&j.row).await);
             }
-            Err(e) => {
-                tracing::warn!(error = %e, batches = batches.len(), posts = posts.len(), "group commit failed; storing its requests one by one");
-                for j in batches.drain(..) {
-                    let r = store
-                        .commit_group(&[j.rows()], &[])
-                        .await
-                        .map(|(mut v, _)| v.pop().flatten());
-                    let _ = j.reply.send(r);
-                }
-                for j in posts.drain(..) {
-                    let r = store
-                        .commit_group(&[], &[j.rows()])
-                        .await
-                        .map(|(_, mut v)| v.pop().flatten());
-                    let _ = j.reply.send(r);
-                }
+        }
+    }
+}
+
+/// Stores the group's observation batches and telemetry posts and answers them.
+async fn store_ingest(store: &Store, batches: &mut Vec<BatchJob>, posts: &mut Vec<TelemetryJob>) {
+    if batches.is_empty() && posts.is_empty() {
+        return;
+    }
+    if batches.is_empty() {
+        store_posts(store, posts).await;
+        return;
+    }
+    let new_batches: Vec<NewBatch<'_>> = batches.iter().map(BatchJob::rows).collect();
+    let new_posts: Vec<NewTelemetry<'_>> = posts.iter().map(TelemetryJob::rows).collect();
+    let result = store.commit_group(&new_batches, &new_posts).await;
+    drop((new_batches, new_posts));
+    match result {
+        Ok((stored, counted)) => {
+            for (j, o) in batches.drain(..).zip(stored) {
+                let _ = j.reply.send(Ok(o));
+            }
+            for (j, o) in posts.drain(..).zip(counted) {
+                let _ = j.reply.send(Ok(o));
+            }
+        }
+        Err(e) if batches.len() + posts.len() == 1 => {
+            if let Some(j) = batches.pop() {
+                let _ = j.reply.send(Err(e));
+            } else if let Some(j) = posts.pop() {
+                let _ = j.reply.send(Err(e));
+            }
+        }
+        Err(e) => {
+            tracing::warn!(error = %e, batches = batches.len(), posts = posts.len(), "group commit failed; storing its requests one by one");
+            for j in batches.drain(..) {
+                let r = store
+                    .commit_group(&[j.rows()], &[])
+                    .await
+                    .map(|(mut v, _)| v.pop().flatten());
+                let _ = j.reply.send(r);
+            }
+            for j in posts.drain(..) {
+                let r = store
+                    .commit_group(&[], &[j.rows()])
+                    .await
+                    .map(|(_, mut v)| v.pop().flatten());
+                let _ = j.reply.send(r);
             }
         }
     }
@@ -849,5 +914,116 @@ mod tests {
             .await
             .expect("rows");
         assert_eq!(rows.len(), 28);
+    }
+    fn plan(id: &str, mission_id: &str, revision: i64) -> PlanRow {
+        PlanRow {
+            id: wire::ids::PlanId(id.into()),
+            mission_id: wire::ids::MissionId::from(mission_id),
+            revision,
+            created_at_s: 100.0,
+            seed: 7,
+            inputs: format!("{{\"plan\":\"{id}\"}}"),
+            body: "x".repeat(5000),
+            written_by: "gcs".into(),
+        }
+    }
+
+    #[tokio::test]
+    async fn plans_of_one_statement_each_get_their_own_answer_and_the_first_of_a_revision_wins() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        store
+            .commit_plans(&[plan("p0", "webster", 1)])
+            .await
+            .expect("commit")
+            .pop()
+            .expect("answer")
+            .expect("stored");
+        let answers = store
+            .commit_plans(&[
+                plan("a", "webster", 2),
+                plan("b", "webster", 1),
+                plan("c", "nope", 1),
+                plan("d", "webster", 2),
+                plan("e", "webster", 3),
+            ])
+            .await
+            .expect("commit");
+        let kinds: Vec<String> = answers
+            .iter()
+            .map(|a| match a {
+                Ok(()) => "stored".to_string(),
+                Err(InsertPlanError::RevisionTaken(r)) => format!("taken {r}"),
+                Err(InsertPlanError::NoMission) => "no mission".to_string(),
+                Err(InsertPlanError::Db(e)) => format!("db {e}"),
+            })
+            .collect();
+        assert_eq!(
+            kinds,
+            ["stored", "taken 1", "no mission", "taken 2", "stored"]
+        );
+        let id = wire::ids::MissionId::from("webster");
+        for (revision, want) in [(1, "p0"), (2, "a"), (3, "e")] {
+            let got = store
+                .get_plan_by_revision(&id, revision)
+                .await
+                .expect("read")
+                .expect("stored");
+            assert_eq!(got, plan(want, "webster", revision), "revision {revision}");
+        }
+        assert_eq!(store.latest_plan_revision(&id).await.expect("latest"), 3);
+    }
+
+    #[tokio::test]
+    async fn concurrent_plans_through_the_queue_take_each_revision_once() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        // 24 requests racing for revisions 1-6, four for each, beside observation batches
+        // in the same queue.
+        let tasks: Vec<_> = (0..24_i64)
+            .map(|i| {
+                let store = store.clone();
+                tokio::spawn(async move {
+                    let rows = [row("9", i as f64, 38.1)];
+                    let batch = store.insert_observations("webster", &rows, 11.0);
+                    let p = plan(&format!("p{i}"), "webster", i % 6 + 1);
+                    let (b, stored) = tokio::join!(batch, store.insert_plan(&p));
+                    b.expect("batch").expect("mission exists");
+                    (p, stored)
+                })
+            })
+            .collect();
+        let mut winners = std::collections::BTreeMap::new();
+        for t in tasks {
+            let (p, stored) = t.await.expect("task");
+            match stored {
+                Ok(()) => {
+                    assert!(
+                        winners.insert(p.revision, p.id.0.clone()).is_none(),
+                        "revision {} stored twice",
+                        p.revision
+                    );
+                }
+                Err(InsertPlanError::RevisionTaken(r)) => assert_eq!(r, p.revision),
+                Err(e) => panic!("plan {}: {e}", p.id.0),
+            }
+        }
+        assert_eq!(
+            winners.keys().copied().collect::<Vec<_>>(),
+            [1, 2, 3, 4, 5, 6]
+        );
+        let id = wire::ids::MissionId::from("webster");
+        for (revision, winner) in &winners {
+            let got = store
+                .get_plan_by_revision(&id, *revision)
+                .await
+                .expect("read")
+                .expect("stored");
+            assert_eq!(&got.id.0, winner);
+        }
+        assert_eq!(
+            store.observation_seq("webster").await.expect("seq"),
+            Some(24)
+        );
     }
 }

@@ -28,6 +28,9 @@ pub struct PlanRow {
     pub written_by: String,
 }
 
+/// Columns of a plan row, as [`Store::commit_plans`] binds them.
+const PLAN_COLUMNS: usize = 8;
+
 /// Why a plan could not be stored.
 #[derive(Debug, thiserror::Error)]
 pub enum InsertPlanError {
@@ -55,9 +58,16 @@ impl Store {
         row.try_get::<i64, _>(0)
     }
 
-    /// Stores a plan at `row.revision`, which must be the next free revision.
+    /// Stores a plan at `row.revision`, which must be the next free revision. On SQLite
+    /// the plan goes through the group commit ([`super::group_commit`]): plans arriving
+    /// together are stored by one statement, so they share one commit.
     #[tracing::instrument(skip(self, row), fields(mission = %row.mission_id, revision = row.revision))]
     pub async fn insert_plan(&self, row: &PlanRow) -> Result<(), InsertPlanError> {
+        if let Some(group) = &self.group
+            && let Some(result) = group.submit_plan(row).await
+        {
+            return result;
+        }
         match &self.writer {
             Some(w) => {
                 let (store, row) = (self.clone(), row.clone());
@@ -68,7 +78,94 @@ impl Store {
         }
     }
 
-    async fn insert_plan_here(&self, row: &PlanRow) -> Result<(), InsertPlanError> {
+    /// Stores `rows` (plans of any missions) with one statement, so on SQLite they share
+    /// one commit: a plan whose revision is already taken (by an earlier request, or by a
+    /// plan earlier in `rows`: the first one wins) gets [`InsertPlanError::RevisionTaken`],
+    /// one whose mission does not exist [`InsertPlanError::NoMission`], each without
+    /// disturbing the others. Answers in the order of `rows`.
+    ///
+    /// # Errors
+    /// Database failures (nothing is stored).
+    pub async fn commit_plans(
+        &self,
+        rows: &[PlanRow],
+    ) -> Result<Vec<Result<(), InsertPlanError>>, sqlx::Error> {
+        if rows.is_empty() {
+            return Ok(Vec::new());
+        }
+        let values = if self.backend == super::Backend::Sqlite {
+            super::values_sql_anonymous
+        } else {
+            super::values_sql
+        };
+        let sql = values(
+            "INSERT INTO plans (id, mission_id, revision, created_at_us, seed, inputs, body, written_by) SELECT * FROM (VALUES ",
+            PLAN_COLUMNS,
+            rows.len(),
+            ") AS v WHERE EXISTS (SELECT 1 FROM missions WHERE id = v.column2) \
+             ON CONFLICT DO NOTHING RETURNING id",
+        );
+        let mut q = sqlx::query(sqlx::AssertSqlSafe(sql));
+        for row in rows {
+            q = q
+                .bind(row.id.0.clone())
+                .bind(row.mission_id.0.clone())
+                .bind(row.revision)
+                .bind(to_us(row.created_at_s))
+                .bind(row.seed.to_string())
+                .bind(row.inputs.clone())
+                .bind(row.body.clone())
+                .bind(row.written_by.clone());
+        }
+        let mut conn = self.write.acquire().await?;
+        let stored: std::collections::HashSet<String> = q
+            .fetch_all(&mut *conn)
+            .await?
+            .iter()
+            .map(|r| r.try_get::<String, _>(0))
+            .collect::<Result<_, _>>()?;
+        // A plan left out had its revision taken, or no mission: ask which missions exist
+        // only when some plan was left out.
+        let mut missing: Vec<&str> = rows
+            .iter()
+            .filter(|r| !stored.contains(&r.id.0))
+            .map(|r| r.mission_id.0.as_str())
+            .collect();
+        missing.sort_unstable();
+        missing.dedup();
+        let mut existing = std::collections::HashSet::new();
+        if !missing.is_empty() {
+            let marks = (1..=missing.len())
+                .map(|i| format!("${i}"))
+                .collect::<Vec<_>>()
+                .join(",");
+            let mut q = sqlx::query(sqlx::AssertSqlSafe(format!(
+                "SELECT id FROM missions WHERE id IN ({marks})"
+            )));
+            for m in &missing {
+                q = q.bind(m.to_string());
+            }
+            for r in q.fetch_all(&mut *conn).await? {
+                existing.insert(r.try_get::<String, _>(0)?);
+            }
+        }
+        Ok(rows
+            .iter()
+            .map(|r| {
+                if stored.contains(&r.id.0) {
+                    Ok(())
+                } else if existing.contains(&r.mission_id.0) {
+                    Err(InsertPlanError::RevisionTaken(r.revision))
+                } else {
+                    Err(InsertPlanError::NoMission)
+                }
+            })
+            .collect())
+    }
+
+    /// Stores one plan by itself: the path of PostgreSQL, and of a plan whose group
+    /// failed.
+    pub(super) async fn insert_plan_here(&self, row: &PlanRow) -> Result<(), InsertPlanError> {
         let r = sqlx::query(
             "INSERT INTO plans (id, mission_id, revision, created_at_us, seed, inputs, body, written_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
         )
