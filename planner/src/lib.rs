@@ -46,6 +46,7 @@ pub mod prepass;
 pub mod reactive;
 pub mod replan;
 pub mod revisit;
+pub mod shown_turn;
 pub mod simplify;
 pub mod stack;
 pub mod tangent;

@@ -84,6 +84,11 @@ pub struct PlanInputs {
     /// True when the request gave no turn radius and `aircraft.turn_radius_m` is the
     /// default derived from the speed (the plan then warns `turn_radius_assumed`).
     pub turn_radius_assumed: bool,
+    /// The largest bank the aircraft had shown in its telemetry by this plan, degrees
+    /// (carried from the base revision; `None`: no turn seen). Without a turn radius in
+    /// the request, the radius assumed is a turn at this bank (less a margin), never wider
+    /// than the default ([`super::plans::assumed_turn_radius_m`]).
+    pub shown_bank_deg: Option<f64>,
     /// The autopilot's waypoint acceptance radius, metres (`None`: the verification's
     /// default, 10).
     pub acceptance_radius_m: Option<f64>,
@@ -374,6 +379,13 @@ pub fn plan_out(
     }
 }
 
+/// The bank of a coordinated turn of `radius_m` at `speed_mps`, degrees.
+fn bank_deg(speed_mps: f64, radius_m: f64) -> f64 {
+    (speed_mps * speed_mps / (9.806_65 * radius_m))
+        .atan()
+        .to_degrees()
+}
+
 /// The plan's warnings: its view's, and `turn_radius_assumed` when the request gave no
 /// turn radius.
 fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
@@ -382,10 +394,22 @@ fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
         w.push(PlanWarning {
             code: "turn_radius_assumed".into(),
             message: format!(
-                "no aircraft.turn_radius_m in the request: turns assumed at {:.1} m ({} degrees of bank at {:.1} m/s). Send the aircraft's own minimum turn radius: a radius smaller than the aircraft's lets a plan hold turns the aircraft flies wide of.",
+                "no aircraft.turn_radius_m in the request: turns assumed at {:.1} m ({:.1} degrees of bank at {:.1} m/s; {}). Send the aircraft's own minimum turn radius: a radius smaller than the aircraft's lets a plan hold turns the aircraft flies wide of.",
                 inputs.aircraft.turn_radius_m,
-                super::plans::DEFAULT_BANK_DEG,
+                bank_deg(
+                    planned_speed_mps(&inputs.start, inputs.aircraft.speed_mps),
+                    inputs.aircraft.turn_radius_m
+                ),
                 planned_speed_mps(&inputs.start, inputs.aircraft.speed_mps),
+                match inputs.shown_bank_deg {
+                    Some(b) if b > super::plans::DEFAULT_BANK_DEG => format!(
+                        "the telemetry has shown turns at {b:.1} degrees of bank, planned 3 degrees below, at most 45"
+                    ),
+                    _ => format!(
+                        "the default, {} degrees, until the telemetry shows harder turns",
+                        super::plans::DEFAULT_BANK_DEG
+                    ),
+                },
             ),
         });
     }

@@ -51,6 +51,10 @@ pub struct InputsRecord {
     /// True when `turn_radius_m` is the default (the request gave none).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub turn_radius_assumed: bool,
+    /// The largest bank shown in the aircraft's telemetry by this plan, degrees (absent:
+    /// none seen, as in plans stored before it was kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shown_bank_deg: Option<f64>,
     /// The autopilot's acceptance radius, metres (absent: the default).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acceptance_radius_m: Option<f64>,
@@ -156,6 +160,7 @@ impl InputsRecord {
             speed_mps: inputs.aircraft.speed_mps,
             turn_radius_m: inputs.aircraft.turn_radius_m,
             turn_radius_assumed: inputs.turn_radius_assumed,
+            shown_bank_deg: inputs.shown_bank_deg,
             acceptance_radius_m: inputs.acceptance_radius_m,
             current_index: inputs.current_index,
             stack: inputs.stack.iter().map(StoredItem::from).collect(),
@@ -206,6 +211,7 @@ impl InputsRecord {
                 turn_radius_m: self.turn_radius_m,
             },
             turn_radius_assumed: self.turn_radius_assumed,
+            shown_bank_deg: self.shown_bank_deg,
             acceptance_radius_m: self.acceptance_radius_m,
             current_index: self.current_index,
             stack: self
@@ -378,6 +384,7 @@ mod tests {
                 turn_radius_m: 40.0,
             },
             turn_radius_assumed: false,
+            shown_bank_deg: None,
             acceptance_radius_m: None,
             current_index: 1,
             stack: vec![
@@ -488,6 +495,7 @@ mod tests {
         // The aircraft's optional facts come back as given, and absent when not given.
         let inputs = PlanInputs {
             turn_radius_assumed: true,
+            shown_bank_deg: Some(41.5),
             acceptance_radius_m: Some(30.0),
             revisit: Some(planner::Missed {
                 stack_index: 0,
@@ -499,8 +507,12 @@ mod tests {
         let text = InputsRecord::of(&inputs).to_json().unwrap();
         let v: Value = serde_json::from_str(&text).unwrap();
         assert_eq!(
-            (&v["turn_radius_assumed"], &v["acceptance_radius_m"]),
-            (&json!(true), &json!(30.0))
+            (
+                &v["turn_radius_assumed"],
+                &v["shown_bank_deg"],
+                &v["acceptance_radius_m"]
+            ),
+            (&json!(true), &json!(41.5), &json!(30.0))
         );
         assert_eq!(
             v["revisit"],
@@ -512,6 +524,7 @@ mod tests {
             .unwrap();
         assert!(
             !plain.contains("turn_radius_assumed")
+                && !plain.contains("shown_bank")
                 && !plain.contains("acceptance")
                 && !plain.contains("revisit")
         );

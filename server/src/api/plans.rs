@@ -65,10 +65,12 @@ pub struct AircraftIn {
     #[schema(exclusive_minimum = 0, maximum = 200)]
     pub speed_mps: Option<f64>,
     /// Minimum turn radius, metres, at most 10 000. Default: the radius of a coordinated
-    /// turn at 30 degrees of bank at the speed flown (the telemetry's, reported or
-    /// estimated, else `speed_mps`): v^2 / (g tan 30 deg), 71 m at 20 m/s, 45 m at 16 m/s.
-    /// Send your aircraft's own: the default is cautious, and a radius below the aircraft's
-    /// is not safe (the plan's turns are flown wider than it verified).
+    /// turn at the speed flown (the telemetry's, reported or estimated, else `speed_mps`)
+    /// at 30 degrees of bank, v^2 / (g tan 30 deg) (71 m at 20 m/s, 45 m at 16 m/s), or,
+    /// once the telemetry has shown the aircraft turning harder (carried from the base
+    /// revision), at the bank shown less 3 degrees, at most 45. Send your aircraft's own:
+    /// a radius below the aircraft's is not safe (the plan's turns are flown wider than it
+    /// verified).
     #[schema(minimum = 0, maximum = 10000)]
     pub turn_radius_m: Option<f64>,
     /// The autopilot's waypoint acceptance radius, metres (ArduPlane `WP_RADIUS`, PX4
@@ -96,8 +98,53 @@ pub fn default_turn_radius_m(speed_mps: f64) -> f64 {
     speed_mps * speed_mps / (G_MPS2 * DEFAULT_BANK_DEG.to_radians().tan())
 }
 
+/// The turn radius assumed when a plan request gives none, at `speed_mps`: a turn at the
+/// bank the aircraft has shown in its telemetry (`shown_bank_deg`, see
+/// [`planner::shown_turn`]; 3 degrees less, at most 45), and never below
+/// [`DEFAULT_BANK_DEG`], so the default radius ([`default_turn_radius_m`]) until the
+/// aircraft has turned harder.
+pub fn assumed_turn_radius_m(speed_mps: f64, shown_bank_deg: Option<f64>) -> f64 {
+    let params = planner::shown_turn::ShownTurnParams::default();
+    let bank = planner::shown_turn::planned_bank_rad(
+        shown_bank_deg.map(f64::to_radians),
+        DEFAULT_BANK_DEG.to_radians(),
+        &params,
+    );
+    planner::shown_turn::radius_for_bank_m(speed_mps, bank)
+}
+
+/// The bank (degrees) the `track`'s samples (in time order) show the aircraft sustaining
+/// in a turn ([`planner::shown_turn::shown_bank_rad`]); `None` when they show no turn.
+pub(crate) fn shown_bank_deg(
+    track: &[crate::store::TelemetryRow],
+    frame: &wire::geodesy::LocalFrame,
+) -> Option<f64> {
+    let samples: Vec<planner::shown_turn::HeadingSample> = track
+        .iter()
+        .map(|r| {
+            let p = frame.to_enu(r.lat_deg, r.lon_deg);
+            planner::shown_turn::HeadingSample {
+                t_s: r.t_s,
+                p_m: [p[0], p[1]],
+                heading_rad: r.heading_deg.to_radians(),
+                speed_mps: r.speed_mps,
+            }
+        })
+        .collect();
+    planner::shown_turn::shown_bank_rad(&samples, &Default::default()).map(f64::to_degrees)
+}
+
+/// The larger of two optional values.
+fn max_option(a: Option<f64>, b: Option<f64>) -> Option<f64> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a.max(b)),
+        (a, b) => a.or(b),
+    }
+}
+
 /// Newest telemetry samples a plan reads: the newest is its start, the others give its
-/// ground speed when the newest does not report one ([`with_track_speed`]).
+/// ground speed when the newest does not report one ([`with_track_speed`]) and the bank
+/// it turns at ([`shown_bank_deg`]).
 const TRACK_SAMPLES: u32 = 32;
 
 /// At most this many telemetry samples show whether a waypoint was missed
@@ -232,6 +279,7 @@ async fn create_plan(
     }
     // The base revision's stack, current index and pursuit of its next fixed item (the
     // item's index in that stack and since when it has been the target).
+    let mut base_shown_bank = None;
     let (stack, base_current, base_target) = if base_revision == 0 {
         (Vec::new(), 0, None)
     } else {
@@ -242,8 +290,9 @@ async fn create_plan(
             .ok_or_else(|| ApiError::field("/base_revision", "no such revision"))?;
         let out = stored_plan_out(&row)?;
         let stack: Vec<GeoItem> = out.waypoints.iter().map(GeoItem::from).collect();
-        let since = stored_inputs(&row)?.target_since_s;
-        let target = next_fixed(&stack, 0, out.current_index).zip(since);
+        let base_inputs = stored_inputs(&row)?;
+        let target = next_fixed(&stack, 0, out.current_index).zip(base_inputs.target_since_s);
+        base_shown_bank = base_inputs.shown_bank_deg;
         (stack, out.current_index, target)
     };
     let stack_len = if stack.is_empty() {
@@ -310,8 +359,15 @@ async fn create_plan(
         },
         None => stack_start(&mission, &stack, current_index, now),
     };
+    // The largest bank the aircraft has shown: carried from the base revision, and what
+    // the newest telemetry shows.
+    let shown_bank_deg = max_option(
+        base_shown_bank,
+        shown_bank_deg(&telemetry, &mission.frame()),
+    );
     let turn_radius_m = a.turn_radius_m.unwrap_or_else(|| {
-        default_turn_radius_m(planned_speed_mps(&start, speed_mps)).min(MAX_TURN_RADIUS_M)
+        assumed_turn_radius_m(planned_speed_mps(&start, speed_mps), shown_bank_deg)
+            .min(MAX_TURN_RADIUS_M)
     });
     // Putting the next waypoint off is bounded in total (planner::Replan::target_pending_s):
     // the clock runs from the first plan that flew toward it, on the start's clock.
@@ -349,6 +405,7 @@ async fn create_plan(
             turn_radius_m,
         },
         turn_radius_assumed: a.turn_radius_m.is_none(),
+        shown_bank_deg,
         acceptance_radius_m: a.acceptance_radius_m,
         current_index,
         stack,

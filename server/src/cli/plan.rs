@@ -200,6 +200,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
                 .unwrap_or_else(|| crate::api::plans::default_turn_radius_m(args.speed_mps)),
         },
         turn_radius_assumed: args.turn_radius_m.is_none(),
+        shown_bank_deg: None,
         acceptance_radius_m: None,
         current_index,
         stack: Vec::new(),

@@ -17,6 +17,7 @@ both_stores!(
     the_search_area_ladder_covers_the_search_grid_with_validated_parameters,
     the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_revision,
     a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows,
+    without_a_turn_radius_the_plan_turns_at_the_bank_the_telemetry_has_shown,
     a_waypoint_passed_wider_than_100_ft_is_flown_again_once,
 );
 
@@ -689,6 +690,150 @@ async fn a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows
 
     // The first plan replays from what it used, the estimated speed included.
     assert_replays_identically(&app, &id, &first).await;
+}
+
+/// The turn radius a `turn_radius_assumed` warning names ("turns assumed at R m").
+fn assumed_radius_m(plan: &Value) -> f64 {
+    let w = warning(plan, "turn_radius_assumed").expect("a turn_radius_assumed warning");
+    let tail = w.split("turns assumed at ").nth(1).expect("a radius");
+    tail.split(" m").next().unwrap().parse().expect("a number")
+}
+
+/// A client that sends no turn radius (the interop forms have no such field) gets turns
+/// at the bank its aircraft has shown in its telemetry, 3 degrees less, rather than the
+/// cautious 30-degree default, once it has turned harder than that: an aircraft banking
+/// 43 degrees flies every turn tighter than a 30-degree plan assumed. The bank is carried
+/// from the base revision when the newest telemetry shows no turn, and the plan replays
+/// with the radius it used.
+async fn without_a_turn_radius_the_plan_turns_at_the_bank_the_telemetry_has_shown(app: App) {
+    let id = app.create_webster_mission().await;
+    const V: f64 = 18.0;
+    const G: f64 = 9.806_65;
+    let omega = G * 43.3f64.to_radians().tan() / V;
+    let r = V / omega;
+    // Metres east / north of the aircraft's position, as latitude and longitude.
+    let at = |east: f64, north: f64| {
+        (
+            AIRCRAFT.0 + north / 111_000.0,
+            AIRCRAFT.1 + east / (111_000.0 * AIRCRAFT.0.to_radians().cos()),
+        )
+    };
+    let post = |samples: Vec<Value>| {
+        let (app, id) = (&app, &id);
+        async move {
+            let r = app
+                .post_json(&format!("/api/v1/missions/{id}/telemetry"), &json!(samples))
+                .await;
+            assert_eq!(r.status(), 202);
+        }
+    };
+    // Straight north at 18 m/s, no speed reported (as the interop forms): the default.
+    let straight = |from_s: f64, n: u32| -> Vec<Value> {
+        (0..n)
+            .map(|k| {
+                let t = from_s + 0.2 * f64::from(k);
+                let (lat, lon) = at(0.0, V * t);
+                json!({"t": T0 + t, "lat": lat, "lon": lon, "alt_msl_m": 60.96, "heading_deg": 0.0})
+            })
+            .collect()
+    };
+    post(straight(0.0, 15)).await;
+    let before = plan(&app, &id, json!({"seed": 5, "current_index": 1})).await;
+    let v0 = num(&before, "/start/speed_mps");
+    let default_r = v0 * v0 / (G * 30f64.to_radians().tan());
+    assert!(
+        (assumed_radius_m(&before) - default_r).abs() < 0.11,
+        "{}",
+        before["warnings"]
+    );
+    // Then a left turn at 43.3 degrees of bank (35 m), 5 Hz for 4 s.
+    let turn: Vec<Value> = (1..=20)
+        .map(|k| {
+            let a = omega * 0.2 * f64::from(k);
+            let (lat, lon) = at(-r + r * a.cos(), V * 2.8 + r * a.sin());
+            json!({"t": T0 + 2.8 + 0.2 * f64::from(k), "lat": lat, "lon": lon,
+                   "alt_msl_m": 60.96, "heading_deg": (-a.to_degrees()).rem_euclid(360.0)})
+        })
+        .collect();
+    post(turn).await;
+    let turned = plan(
+        &app,
+        &id,
+        json!({"seed": 5, "base_revision": 1, "current_index": 1}),
+    )
+    .await;
+    let v = num(&turned, "/start/speed_mps");
+    let planned = |bank_deg: f64| v * v / (G * bank_deg.to_radians().tan());
+    let radius = assumed_radius_m(&turned);
+    // 43.3 shown, 40.3 planned (the track is measured in the server's own frame: a
+    // degree either way).
+    assert!(
+        (planned(41.3)..=planned(39.3)).contains(&radius),
+        "{radius} m, expected about {:.1}: {}",
+        planned(40.3),
+        turned["warnings"]
+    );
+    assert!(
+        radius > V * V / (G * 43.3f64.to_radians().tan()),
+        "never tighter than flown"
+    );
+    assert!(
+        warning(&turned, "turn_radius_assumed")
+            .unwrap()
+            .contains("the telemetry has shown turns at 4"),
+        "{}",
+        turned["warnings"]
+    );
+    // Straight again, long enough that the newest samples show no turn: the bank shown
+    // is carried from the base revision...
+    let heading = (-(omega * 4.0).to_degrees()).rem_euclid(360.0);
+    let (lat, lon) = at(
+        -r + r * (omega * 4.0).cos(),
+        V * 2.8 + r * (omega * 4.0).sin(),
+    );
+    let level: Vec<Value> = (1..=40)
+        .map(|k| {
+            let d = V * 0.2 * f64::from(k);
+            let h = heading.to_radians();
+            let (dlat, dlon) = (
+                d * h.cos() / 111_000.0,
+                d * h.sin() / (111_000.0 * AIRCRAFT.0.to_radians().cos()),
+            );
+            json!({"t": T0 + 6.8 + 0.2 * f64::from(k), "lat": lat + dlat, "lon": lon + dlon,
+                   "alt_msl_m": 60.96, "heading_deg": heading})
+        })
+        .collect();
+    post(level).await;
+    let carried = plan(
+        &app,
+        &id,
+        json!({"seed": 5, "base_revision": 2, "current_index": 1}),
+    )
+    .await;
+    let vc = num(&carried, "/start/speed_mps");
+    let rc = assumed_radius_m(&carried);
+    assert!(
+        rc < 0.8 * vc * vc / (G * 30f64.to_radians().tan()),
+        "{rc} m at {vc} m/s: {}",
+        carried["warnings"]
+    );
+    assert_replays_identically(&app, &id, &carried).await;
+    // ... and not without one (nothing says which flight the newest samples belong to).
+    let fresh = plan(&app, &id, json!({"seed": 5, "current_index": 1})).await;
+    let rf = assumed_radius_m(&fresh);
+    assert!(
+        (rf - vc * vc / (G * 30f64.to_radians().tan())).abs() < 0.11,
+        "{rf}: {}",
+        fresh["warnings"]
+    );
+    // A radius in the request still wins.
+    let given = plan(
+        &app,
+        &id,
+        json!({"seed": 5, "aircraft": {"turn_radius_m": 50.0}}),
+    )
+    .await;
+    assert_eq!(warning(&given, "turn_radius_assumed"), None);
 }
 
 /// The message of a plan's warning `code`, if it has one.

@@ -1,0 +1,233 @@
+//! The bank an aircraft has shown in its own telemetry (beyond the seeds).
+//!
+//! A plan needs the aircraft's minimum turn radius. A client that does not send it (the
+//! judges' interop telemetry forms carry no such thing) gets a cautious default, a turn at
+//! 30 degrees of bank; an aircraft that banks harder then flies every turn tighter than
+//! the plan's own check of its routes assumed, and the check no longer predicts the flight.
+//! But the aircraft's telemetry shows how hard it banks: in a coordinated turn at ground
+//! speed `v` and turn rate `omega`, `tan(bank) = v * omega / g`. [`shown_bank_rad`] reads
+//! that from heading changes; the caller keeps the largest value seen over the flight and
+//! plans turns at it ([`radius_for_bank_m`]).
+//!
+//! Contract:
+//! - Evidence only: a window counts only when the heading turned at least
+//!   [`ShownTurnParams::min_turn_rad`] over at least [`ShownTurnParams::min_span_s`]
+//!   (noise on a straight leg does not look like a turn), and a bank counts only when two
+//!   consecutive windows turn the same way: the smaller of the two is taken, so one bad
+//!   sample cannot raise it.
+//! - Never bolder than the aircraft: banks within [`ShownTurnParams::margin_rad`] of what
+//!   was shown are not used, and never more than [`ShownTurnParams::max_bank_rad`].
+//! - Pure: the same samples give the same answer.
+//!
+//! # Units
+//! Seconds, ENU metres, radians; `heading_rad` is a compass heading (any convention whose
+//! differences are turn angles).
+
+use crate::geometry::{Point, dist};
+
+/// Standard gravity, m/s^2.
+const G_MPS2: f64 = 9.806_65;
+
+/// One telemetry sample of the aircraft.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeadingSample {
+    /// Time, seconds.
+    pub t_s: f64,
+    /// Position, ENU metres.
+    pub p_m: Point,
+    /// Heading, radians.
+    pub heading_rad: f64,
+    /// Ground speed when the telemetry reports it, m/s.
+    pub speed_mps: Option<f64>,
+}
+
+/// Parameters of [`shown_bank_rad`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ShownTurnParams {
+    /// A window spans at least this long, seconds (one sample period at 1 Hz)...
+    pub min_span_s: f64,
+    /// ... and at most this long (a longer gap is no window).
+    pub max_span_s: f64,
+    /// A window whose heading turned less than this is not a turn, radians.
+    pub min_turn_rad: f64,
+    /// Planned banks stay this far below the bank shown, radians.
+    pub margin_rad: f64,
+    /// No bank above this is ever used, radians.
+    pub max_bank_rad: f64,
+}
+
+impl Default for ShownTurnParams {
+    /// Windows of 1-3 s turning at least 10 degrees; plans 3 degrees below the bank shown,
+    /// at most 45 degrees (fixed wings at the competition fly 25-45).
+    fn default() -> Self {
+        Self {
+            min_span_s: 1.0,
+            max_span_s: 3.0,
+            min_turn_rad: 10f64.to_radians(),
+            margin_rad: 3f64.to_radians(),
+            max_bank_rad: 45f64.to_radians(),
+        }
+    }
+}
+
+/// The largest bank that `samples` (in time order) show the aircraft sustaining over two
+/// consecutive windows, before the margin; `None` when they show no turn.
+pub fn shown_bank_rad(samples: &[HeadingSample], params: &ShownTurnParams) -> Option<f64> {
+    // Each window: from a sample to the first one at least `min_span_s` later.
+    let mut windows: Vec<(usize, usize, f64)> = Vec::new();
+    for (i, a) in samples.iter().enumerate() {
+        let Some(j) = (i + 1..samples.len()).find(|&j| samples[j].t_s - a.t_s >= params.min_span_s)
+        else {
+            break;
+        };
+        let b = &samples[j];
+        let dt = b.t_s - a.t_s;
+        if dt > params.max_span_s {
+            continue;
+        }
+        let turn = geom::wrap_pi(b.heading_rad - a.heading_rad);
+        if !turn.is_finite() || turn.abs() < params.min_turn_rad {
+            continue;
+        }
+        // Ground speed: reported, else the arc of a steady turn through the chord.
+        let v = match (a.speed_mps, b.speed_mps) {
+            (Some(va), Some(vb)) => 0.5 * (va + vb),
+            _ => {
+                let half = 0.5 * turn.abs();
+                dist(a.p_m, b.p_m) * half / half.sin() / dt
+            }
+        };
+        if !(v.is_finite() && v > 0.0) {
+            continue;
+        }
+        let bank = (v * turn.abs() / dt / G_MPS2).atan().copysign(turn);
+        windows.push((i, j, bank));
+    }
+    // Two consecutive windows (the second starts where the first ended) turning the same
+    // way: the smaller bank of the two.
+    let mut best: Option<f64> = None;
+    for w in &windows {
+        let Some(next) = windows.iter().find(|n| n.0 == w.1) else {
+            continue;
+        };
+        if w.2.signum() != next.2.signum() {
+            continue;
+        }
+        let sustained = w.2.abs().min(next.2.abs());
+        best = Some(best.map_or(sustained, |b| b.max(sustained)));
+    }
+    best
+}
+
+/// The bank to plan turns at, given the largest bank `shown` so far (see
+/// [`shown_bank_rad`]) and the bank assumed without evidence: `shown` less the margin,
+/// at most [`ShownTurnParams::max_bank_rad`], and never below `assumed_rad`.
+pub fn planned_bank_rad(shown: Option<f64>, assumed_rad: f64, params: &ShownTurnParams) -> f64 {
+    shown.map_or(assumed_rad, |s| {
+        (s - params.margin_rad)
+            .min(params.max_bank_rad)
+            .max(assumed_rad)
+    })
+}
+
+/// The radius of a coordinated turn at `bank_rad` and `speed_mps`: v^2 / (g tan bank).
+pub fn radius_for_bank_m(speed_mps: f64, bank_rad: f64) -> f64 {
+    speed_mps * speed_mps / (G_MPS2 * bank_rad.tan())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An aircraft flying `straight_s` east, then turning left at `bank_deg` for `turn_s`,
+    /// sampled every `dt_s`, with the heading disturbed by `noise_deg` (alternating sign).
+    fn flight(
+        v: f64,
+        bank_deg: f64,
+        straight_s: f64,
+        turn_s: f64,
+        dt_s: f64,
+        noise_deg: f64,
+        report_speed: bool,
+    ) -> Vec<HeadingSample> {
+        let omega = G_MPS2 * bank_deg.to_radians().tan() / v;
+        let r = v / omega;
+        let mut out = Vec::new();
+        let mut t = 0.0;
+        let mut k = 0;
+        while t <= straight_s + turn_s + 1e-9 {
+            let (p, h) = if t <= straight_s {
+                ([v * t, 0.0], 0.0)
+            } else {
+                let a = omega * (t - straight_s);
+                ([v * straight_s + r * a.sin(), r * (1.0 - a.cos())], a)
+            };
+            let noise = if k % 2 == 0 { noise_deg } else { -noise_deg };
+            out.push(HeadingSample {
+                t_s: t,
+                p_m: p,
+                heading_rad: h + noise.to_radians(),
+                speed_mps: report_speed.then_some(v),
+            });
+            t += dt_s;
+            k += 1;
+        }
+        out
+    }
+
+    #[test]
+    fn a_sustained_turn_shows_its_bank_from_positions_or_reported_speed() {
+        for (dt, report) in [(1.0, false), (0.5, false), (0.2, true), (1.0, true)] {
+            let s = flight(18.0, 43.3, 10.0, 8.0, dt, 0.0, report);
+            let bank = shown_bank_rad(&s, &ShownTurnParams::default()).expect("a turn");
+            assert!(
+                (bank.to_degrees() - 43.3).abs() < 1.0,
+                "dt {dt}, reported {report}: {}",
+                bank.to_degrees()
+            );
+        }
+    }
+
+    #[test]
+    fn a_straight_leg_with_heading_noise_shows_no_turn() {
+        let s = flight(18.0, 43.3, 30.0, 0.0, 0.2, 4.0, true);
+        assert_eq!(shown_bank_rad(&s, &ShownTurnParams::default()), None);
+    }
+
+    #[test]
+    fn one_wild_heading_sample_does_not_raise_the_bank() {
+        let mut s = flight(18.0, 30.0, 10.0, 6.0, 1.0, 0.0, false);
+        let clean = shown_bank_rad(&s, &ShownTurnParams::default()).expect("a turn");
+        // One sample's heading 40 degrees off: its two windows turn opposite ways.
+        s[13].heading_rad += 40f64.to_radians();
+        let with_glitch = shown_bank_rad(&s, &ShownTurnParams::default()).expect("a turn");
+        assert!(
+            with_glitch <= clean + 1e-9,
+            "{} > {}",
+            with_glitch.to_degrees(),
+            clean.to_degrees()
+        );
+    }
+
+    #[test]
+    fn the_planned_bank_stays_below_what_was_shown_and_within_its_bounds() {
+        let p = ShownTurnParams::default();
+        let assumed = 30f64.to_radians();
+        assert_eq!(planned_bank_rad(None, assumed, &p), assumed);
+        let planned = planned_bank_rad(Some(43.3f64.to_radians()), assumed, &p);
+        assert!((planned.to_degrees() - 40.3).abs() < 1e-9);
+        // A gentle aircraft keeps the cautious default, a wild reading the cap.
+        assert_eq!(
+            planned_bank_rad(Some(20f64.to_radians()), assumed, &p),
+            assumed
+        );
+        assert_eq!(
+            planned_bank_rad(Some(80f64.to_radians()), assumed, &p),
+            p.max_bank_rad
+        );
+        // The radius planned is never tighter than the aircraft flies.
+        let flown = radius_for_bank_m(18.0, 43.3f64.to_radians());
+        assert!(radius_for_bank_m(18.0, planned) > flown);
+        assert!((radius_for_bank_m(20.0, 30f64.to_radians()) - 70.6).abs() < 0.1);
+    }
+}
