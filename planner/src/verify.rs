@@ -139,6 +139,13 @@ pub struct Verification {
     pub peak_risk: f64,
     /// Highest risk read within [`VerifyParams::near_s`] of the start.
     pub near_peak_risk: f64,
+    /// Sum of the risk read within [`VerifyParams::near_s`] of the start, over every
+    /// point checked on the three paths (one every [`VerifyParams`] spacing): how much of
+    /// the near window a route spends at risk and how deep. In danger it decides between
+    /// routes whose near peaks are equal (both at 1 when a sphere's predicted spread covers
+    /// every way out).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub near_exposure: f64,
     /// Highest risk read relative to the time-graded limit, scaled to the safe risk
     /// (`risk * safe_risk / limit(t)`): at most the safe risk when the route is clear.
     #[cfg_attr(feature = "serde", serde(default))]
@@ -185,7 +192,8 @@ impl Verification {
     /// Orders two verifications of candidate routes: fewer cylinders crossed by the
     /// polyline, then fewer cylinders entered by a flown path and unreachable items; then,
     /// in danger (either route's near-term peak risk above `danger_risk`), the lower
-    /// near-term peak, before fly-zone exits; then fewer fly-zone exits, clear before
+    /// near-term peak, then (equal peaks) the lower near-term exposure, before fly-zone
+    /// exits; then fewer fly-zone exits, clear before
     /// unclear, then (both unclear) lower near-term peak, lower graded peak, lower
     /// exposure; (both clear) fewer missed waypoints; then shorter. True when `self` is
     /// strictly better than `other`.
@@ -205,10 +213,16 @@ impl Verification {
         if flown(self) != flown(other) {
             return flown(self) < flown(other);
         }
-        if self.near_peak_risk.max(other.near_peak_risk) > danger_risk
-            && (self.near_peak_risk - other.near_peak_risk).abs() > 1e-9
-        {
-            return self.near_peak_risk < other.near_peak_risk;
+        if self.near_peak_risk.max(other.near_peak_risk) > danger_risk {
+            if (self.near_peak_risk - other.near_peak_risk).abs() > 1e-9 {
+                return self.near_peak_risk < other.near_peak_risk;
+            }
+            // Equal peaks (at 1 when every way out meets the predicted spread): the route
+            // that spends less of the near window at risk, which meets it later or more
+            // briefly, leaves the next plans time and room.
+            if (self.near_exposure - other.near_exposure).abs() > 1e-9 {
+                return self.near_exposure < other.near_exposure;
+            }
         }
         // Cylinders and unreachable items are equal here: this counts fly-zone exits.
         if self.hard() != other.hard() {
@@ -279,6 +293,18 @@ impl Verification {
         }
         if rival.near_peak_risk > danger_risk && self.near_peak_risk < rival.near_peak_risk - tol {
             return false;
+        }
+        // Danger with equal near peaks so far: decided by the near exposure, which only
+        // grows (and a near peak that grows loses outright).
+        if rival.near_peak_risk > danger_risk
+            && (self.near_peak_risk - rival.near_peak_risk).abs() <= tol
+        {
+            if self.near_exposure > rival.near_exposure + tol {
+                return true;
+            }
+            if self.near_exposure < rival.near_exposure - tol {
+                return false;
+            }
         }
         match self.hard().cmp(&rival.hard()) {
             Greater => return true,
@@ -390,6 +416,7 @@ impl Acc<'_> {
         self.out.peak_risk = self.out.peak_risk.max(r);
         if t <= self.near_end_s {
             self.out.near_peak_risk = self.out.near_peak_risk.max(r);
+            self.out.near_exposure += r;
         }
         let t_limit_s = t_limit_s.min(t);
         let limit = if t_limit_s <= self.near_end_s {
@@ -1276,6 +1303,39 @@ mod tests {
             ..through_cylinder
         };
         assert!(inside.better_than(&polyline_cylinder, 0.05, 0.25));
+    }
+
+    #[test]
+    fn in_danger_equal_near_peaks_are_decided_by_the_near_exposure() {
+        // Both routes meet the predicted spread at risk 1 within the near window; the
+        // straight one spends 40 checked points there, the escape out of the zone 12.
+        let straight = Verification {
+            near_peak_risk: 1.0,
+            near_exposure: 40.0,
+            graded_peak_risk: 1.0,
+            peak_risk: 1.0,
+            length_m: 1000.0,
+            ..Verification::default()
+        };
+        let escape = Verification {
+            near_exposure: 12.0,
+            zone_exits: 1,
+            length_m: 1500.0,
+            ..straight
+        };
+        assert!(escape.better_than(&straight, 0.05, 0.25));
+        assert!(!straight.better_than(&escape, 0.05, 0.25));
+        // Rule off: the fly zone is a hard limit again.
+        assert!(straight.better_than(&escape, 0.05, 2.0));
+        // A partial flight already past the rival's near exposure at the same peak cannot
+        // win any more; one below it still can.
+        let partial = |near_exposure| Verification {
+            near_exposure,
+            length_m: 100.0,
+            ..escape
+        };
+        assert!(partial(41.0).cannot_beat(&straight, 0.05, 0.25, true));
+        assert!(!partial(10.0).cannot_beat(&straight, 0.05, 0.25, true));
     }
 
     #[test]

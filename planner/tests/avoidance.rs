@@ -556,6 +556,66 @@ fn cornered_in_the_fly_zone_the_plan_escapes_out_of_it_rather_than_into_a_sphere
     );
 }
 
+/// Seconds that the route flown at `speed` from `t0` spends inside a disc of radius `r`
+/// moving as `at(t)`, over the first `within_s` seconds, sampled every metre.
+fn time_inside(
+    route: &[Point],
+    speed: f64,
+    r: f64,
+    within_s: f64,
+    at: impl Fn(f64) -> Point,
+) -> f64 {
+    let (mut t, mut inside) = (0.0, 0.0);
+    for w in route.windows(2) {
+        let l = dist(w[0], w[1]);
+        let n = l.ceil().max(1.0) as usize;
+        for i in 0..n {
+            let f = (i as f64 + 0.5) / n as f64;
+            let ti = t + f * l / speed;
+            if ti <= within_s && dist(lerp(w[0], w[1], f), at(ti)) < r {
+                inside += l / n as f64 / speed;
+            }
+        }
+        t += l / speed;
+    }
+    inside
+}
+
+#[test]
+fn overtaken_by_a_sphere_it_cannot_avoid_the_plan_spends_the_least_time_inside() {
+    // The aircraft flies east at 20 m/s in an open field; a sphere of 150 m radius comes
+    // up behind it at 35 m/s. Every way out meets it within the 10 s near window (the
+    // near-term peak risk is 1 on every route), but not for as long: flying on, it is
+    // inside from 3.3 s to 23.3 s. The plan must take a route that spends less of the
+    // near window inside (judged by an independent flight of its legs), not merely one as
+    // bad at its peak.
+    let mission = common::open_mission(vec![], &[[-500.0, 0.0], [3000.0, 0.0]]);
+    let stack = mission_stack(&mission);
+    let sphere = Sweeper {
+        p0: [-200.0, 0.0],
+        v: [35.0, 0.0],
+        r_m: 150.0,
+    };
+    let req = static_request(&mission, &stack);
+    let inside = |items: &[StackItem], ci: usize| {
+        time_inside(&route(&req.state, items, ci), 20.0, sphere.r_m, 10.0, |t| {
+            sphere.at(t)
+        })
+    };
+    let straight = inside(&stack, 1);
+    assert!(
+        straight > 6.0,
+        "the scenario: {straight:.1} s inside flying on"
+    );
+    let p = plan(&req, &sphere).unwrap();
+    assert!((p.verification.near_peak_risk - 1.0).abs() < 1e-9, "{p:?}");
+    let chosen = inside(&p.items, p.current_index);
+    assert!(
+        chosen < straight - 1.0,
+        "{chosen:.1} s inside within 10 s against {straight:.1} flying on: {p:?}"
+    );
+}
+
 /// Minimum clearance (metres, negative inside) from the cylinder at `c` of radius `r` of
 /// an independent model flight of `items`: 20 m/s, at most 20 / `turn_r_m` rad/s,
 /// heading straight for each item and switching within 10 m of it, for 60 s.
