@@ -107,15 +107,7 @@ impl Store {
         );
         let mut q = sqlx::query(sqlx::AssertSqlSafe(sql));
         for row in rows {
-            q = q
-                .bind(row.id.0.clone())
-                .bind(row.mission_id.0.clone())
-                .bind(row.revision)
-                .bind(to_us(row.created_at_s))
-                .bind(row.seed.to_string())
-                .bind(row.inputs.clone())
-                .bind(row.body.clone())
-                .bind(row.written_by.clone());
+            q = bind_plan(q, row);
         }
         let mut conn = self.write.acquire().await?;
         let stored: std::collections::HashSet<String> = q
@@ -166,17 +158,12 @@ impl Store {
     /// Stores one plan by itself: the path of PostgreSQL, and of a plan whose group
     /// failed.
     pub(super) async fn insert_plan_here(&self, row: &PlanRow) -> Result<(), InsertPlanError> {
-        let r = sqlx::query(
-            "INSERT INTO plans (id, mission_id, revision, created_at_us, seed, inputs, body, written_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+        let r = bind_plan(
+            sqlx::query(
+                "INSERT INTO plans (id, mission_id, revision, created_at_us, seed, inputs, body, written_by) VALUES ($1, $2, $3, $4, $5, $6, $7, $8)",
+            ),
+            row,
         )
-        .bind(row.id.0.clone())
-        .bind(row.mission_id.0.clone())
-        .bind(row.revision)
-        .bind(to_us(row.created_at_s))
-        .bind(row.seed.to_string())
-        .bind(row.inputs.clone())
-        .bind(row.body.clone())
-        .bind(row.written_by.clone())
         .execute(&self.write)
         .await;
         match r {
@@ -250,6 +237,18 @@ impl Store {
         })
         .transpose()
     }
+}
+
+/// Binds one plan row's [`PLAN_COLUMNS`] columns, in the order of the plans inserts.
+fn bind_plan<'q>(q: super::AnyQuery<'q>, row: &PlanRow) -> super::AnyQuery<'q> {
+    q.bind(row.id.0.clone())
+        .bind(row.mission_id.0.clone())
+        .bind(row.revision)
+        .bind(to_us(row.created_at_s))
+        .bind(row.seed.to_string())
+        .bind(row.inputs.clone())
+        .bind(row.body.clone())
+        .bind(row.written_by.clone())
 }
 
 enum PlanKey<'a> {
