@@ -105,9 +105,13 @@ pub fn shown_bank_rad(samples: &[HeadingSample], params: &ShownTurnParams) -> Op
     }
     // Two consecutive windows (the second starts where the first ended) turning the same
     // way: the smaller bank of the two.
+    let mut starting_at: Vec<Option<usize>> = vec![None; samples.len()];
+    for (k, w) in windows.iter().enumerate() {
+        starting_at[w.0] = Some(k);
+    }
     let mut best: Option<f64> = None;
     for w in &windows {
-        let Some(next) = windows.iter().find(|n| n.0 == w.1) else {
+        let Some(next) = starting_at[w.1].map(|k| &windows[k]) else {
             continue;
         };
         if w.2.signum() != next.2.signum() {
@@ -133,6 +137,12 @@ pub fn planned_bank_rad(shown: Option<f64>, assumed_rad: f64, params: &ShownTurn
 /// The radius of a coordinated turn at `bank_rad` and `speed_mps`: v^2 / (g tan bank).
 pub fn radius_for_bank_m(speed_mps: f64, bank_rad: f64) -> f64 {
     speed_mps * speed_mps / (G_MPS2 * bank_rad.tan())
+}
+
+/// The bank of a coordinated turn of `radius_m` at `speed_mps` (the inverse of
+/// [`radius_for_bank_m`]): atan(v^2 / (g r)).
+pub fn bank_for_radius_rad(speed_mps: f64, radius_m: f64) -> f64 {
+    (speed_mps * speed_mps / (G_MPS2 * radius_m)).atan()
 }
 
 #[cfg(test)]
@@ -229,5 +239,7 @@ mod tests {
         let flown = radius_for_bank_m(18.0, 43.3f64.to_radians());
         assert!(radius_for_bank_m(18.0, planned) > flown);
         assert!((radius_for_bank_m(20.0, 30f64.to_radians()) - 70.6).abs() < 0.1);
+        let bank = bank_for_radius_rad(18.0, radius_for_bank_m(18.0, planned));
+        assert!((bank - planned).abs() < 1e-12);
     }
 }

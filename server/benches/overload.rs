@@ -114,7 +114,7 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
         .unwrap();
     let tally = Arc::new(Mutex::new(Tally::default()));
     let warm = env_or("JINK_OVERLOAD_WARMUP", 1u32) != 0;
-    let (health, rss, stored, elapsed, warmup) = rt.block_on({
+    let (health, memory, stored, elapsed, warmup) = rt.block_on({
         let tally = tally.clone();
         let wal = wal.clone();
         async move {
@@ -312,7 +312,7 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
                 let base = base.clone();
                 tokio::spawn(async move {
                     let mut health = Vec::new();
-                    let mut rss = Vec::new();
+                    let mut memory = Vec::new();
                     let mut tick = tokio::time::interval(Duration::from_secs(1));
                     while Instant::now() < deadline {
                         tick.tick().await;
@@ -323,16 +323,16 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
                             .await
                             .is_ok_and(|r| r.status() == 200);
                         health.push((ok, sent.elapsed().as_secs_f64() * 1e3));
-                        rss.push((rss_mb(pid), file_mb(&wal)));
+                        memory.push((rss_mb(pid), file_mb(&wal)));
                     }
-                    (health, rss)
+                    (health, memory)
                 })
             };
             for t in tasks {
                 t.await.unwrap();
             }
             let elapsed = start.elapsed().as_secs_f64();
-            let (health, rss) = probe.await.unwrap();
+            let (health, memory) = probe.await.unwrap();
             let mut stored = 0u64;
             for m in &ids {
                 let mut r = client.get(format!("{base}/api/v1/missions/{m}/observations"));
@@ -341,7 +341,7 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
                 }
                 stored += r.send().await.unwrap().json::<Vec<Value>>().await.unwrap().len() as u64;
             }
-            (health, rss, stored, elapsed, warmup)
+            (health, memory, stored, elapsed, warmup)
         }
     });
     let (final_rss, final_wal) = (rss_mb(pid), file_mb(&wal));
@@ -373,8 +373,8 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
         .collect();
     let health_worst = health.iter().map(|h| h.1).fold(0.0, f64::max);
     let health_slow = health.iter().filter(|h| !h.0 || h.1 > 100.0).count();
-    let rss_peak = rss.iter().map(|x| x.0).fold(0.0, f64::max);
-    let wal_peak = rss.iter().map(|x| x.1).fold(0.0, f64::max);
+    let rss_peak = memory.iter().map(|x| x.0).fold(0.0, f64::max);
+    let wal_peak = memory.iter().map(|x| x.1).fold(0.0, f64::max);
     println!(
         "overload: auth={} clients={clients} missions={missions} seconds={seconds}",
         if auth {
@@ -433,7 +433,8 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
     println!("  server memory (VmRSS): peak {rss_peak:.0} MB, at the end {final_rss:.0} MB");
     println!(
         "  SQLite WAL file: peak {wal_peak:.1} MB, at the end {final_wal:.1} MB (every 10 s: {})",
-        rss.iter()
+        memory
+            .iter()
             .step_by(10)
             .map(|x| format!("{:.0}", x.1))
             .collect::<Vec<_>>()

@@ -379,28 +379,20 @@ pub fn plan_out(
     }
 }
 
-/// The bank of a coordinated turn of `radius_m` at `speed_mps`, degrees.
-fn bank_deg(speed_mps: f64, radius_m: f64) -> f64 {
-    (speed_mps * speed_mps / (9.806_65 * radius_m))
-        .atan()
-        .to_degrees()
-}
-
 /// The plan's warnings: its view's, and `turn_radius_assumed` when the request gave no
 /// turn radius.
 fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
     let mut w = c.warnings.clone();
     if inputs.turn_radius_assumed {
+        let speed_mps = planned_speed_mps(&inputs.start, inputs.aircraft.speed_mps);
         w.push(PlanWarning {
             code: "turn_radius_assumed".into(),
             message: format!(
                 "no aircraft.turn_radius_m in the request: turns assumed at {:.1} m ({:.1} degrees of bank at {:.1} m/s; {}). Send the aircraft's own minimum turn radius: a radius smaller than the aircraft's lets a plan hold turns the aircraft flies wide of.",
                 inputs.aircraft.turn_radius_m,
-                bank_deg(
-                    planned_speed_mps(&inputs.start, inputs.aircraft.speed_mps),
-                    inputs.aircraft.turn_radius_m
-                ),
-                planned_speed_mps(&inputs.start, inputs.aircraft.speed_mps),
+                planner::shown_turn::bank_for_radius_rad(speed_mps, inputs.aircraft.turn_radius_m)
+                    .to_degrees(),
+                speed_mps,
                 match inputs.shown_bank_deg {
                     Some(b) if b > super::plans::DEFAULT_BANK_DEG => format!(
                         "the telemetry has shown turns at {b:.1} degrees of bank, planned 3 degrees below, at most 45"

@@ -134,14 +134,6 @@ pub(crate) fn shown_bank_deg(
     planner::shown_turn::shown_bank_rad(&samples, &Default::default()).map(f64::to_degrees)
 }
 
-/// The larger of two optional values.
-fn max_option(a: Option<f64>, b: Option<f64>) -> Option<f64> {
-    match (a, b) {
-        (Some(a), Some(b)) => Some(a.max(b)),
-        (a, b) => a.or(b),
-    }
-}
-
 /// Newest telemetry samples a plan reads: the newest is its start, the others give its
 /// ground speed when the newest does not report one ([`with_track_speed`]) and the bank
 /// it turns at ([`shown_bank_deg`]).
@@ -361,10 +353,13 @@ async fn create_plan(
     };
     // The largest bank the aircraft has shown: carried from the base revision, and what
     // the newest telemetry shows.
-    let shown_bank_deg = max_option(
+    let shown_bank_deg = [
         base_shown_bank,
         shown_bank_deg(&telemetry, &mission.frame()),
-    );
+    ]
+    .into_iter()
+    .flatten()
+    .reduce(f64::max);
     let turn_radius_m = a.turn_radius_m.unwrap_or_else(|| {
         assumed_turn_radius_m(planned_speed_mps(&start, speed_mps), shown_bank_deg)
             .min(MAX_TURN_RADIUS_M)

@@ -97,10 +97,20 @@ impl<R: Clone, T> Request<R, T> {
 type BatchJob = Request<ObservationRow, Option<StoredBatch>>;
 type TelemetryJob = Request<TelemetryRow, Option<InsertCounts>>;
 
+type PlanReply = oneshot::Sender<Result<(), InsertPlanError>>;
+
 /// One plan to store (see [`Store::commit_plans`]).
 struct PlanJob {
     row: PlanRow,
-    reply: oneshot::Sender<Result<(), InsertPlanError>>,
+    reply: PlanReply,
+}
+
+/// A group's plans: their rows (one statement's worth) and, in the same order, whom to
+/// answer.
+#[derive(Default)]
+struct Plans {
+    rows: Vec<PlanRow>,
+    replies: Vec<PlanReply>,
 }
 
 enum Job {
@@ -174,12 +184,15 @@ impl GroupCommit {
 async fn run(store: Store, mut rx: mpsc::Receiver<Job>) {
     let mut batches: Vec<BatchJob> = Vec::with_capacity(MAX_GROUP);
     let mut posts: Vec<TelemetryJob> = Vec::with_capacity(MAX_GROUP);
-    let mut plans: Vec<PlanJob> = Vec::with_capacity(MAX_GROUP);
+    let mut plans = Plans::default();
     while let Some(first) = rx.recv().await {
         let mut take = |job| match job {
             Job::Batch(j) => batches.push(j),
             Job::Telemetry(j) => posts.push(j),
-            Job::Plan(j) => plans.push(j),
+            Job::Plan(j) => {
+                plans.rows.push(j.row);
+                plans.replies.push(j.reply);
+            }
         };
         take(first);
         for _ in 1..MAX_GROUP {
@@ -197,26 +210,26 @@ async fn run(store: Store, mut rx: mpsc::Receiver<Job>) {
 
 /// Stores the group's `plans` with one statement ([`Store::commit_plans`]); if it fails,
 /// each plan is stored by itself so that a failure reaches only the plan that caused it.
-async fn store_plans(store: &Store, plans: &mut Vec<PlanJob>) {
-    if plans.is_empty() {
+async fn store_plans(store: &Store, plans: &mut Plans) {
+    if plans.rows.is_empty() {
         return;
     }
-    let rows: Vec<PlanRow> = plans.iter().map(|j| j.row.clone()).collect();
-    match store.commit_plans(&rows).await {
+    match store.commit_plans(&plans.rows).await {
         Ok(answers) => {
-            for (j, a) in plans.drain(..).zip(answers) {
-                let _ = j.reply.send(a);
+            for (reply, a) in plans.replies.drain(..).zip(answers) {
+                let _ = reply.send(a);
             }
         }
         Err(e) => {
-            if plans.len() > 1 {
-                tracing::warn!(error = %e, plans = plans.len(), "plan group insert failed; storing its plans one by one");
+            if plans.rows.len() > 1 {
+                tracing::warn!(error = %e, plans = plans.rows.len(), "plan group insert failed; storing its plans one by one");
             }
-            for j in plans.drain(..) {
-                let _ = j.reply.send(store.insert_plan_here(&j.row).await);
+            for (reply, row) in plans.replies.drain(..).zip(&plans.rows) {
+                let _ = reply.send(store.insert_plan_here(row).await);
             }
         }
     }
+    plans.rows.clear();
 }
 
 /// Stores the group's observation batches and telemetry posts and answers them.
@@ -458,24 +471,8 @@ async fn telemetry_in(
             ask.push(p.mission_id);
         }
     }
-    if !ask.is_empty() {
-        let marks = (1..=ask.len())
-            .map(|i| format!("${i}"))
-            .collect::<Vec<_>>()
-            .join(",");
-        let mut q = sqlx::query(AssertSqlSafe(format!(
-            "SELECT id FROM missions WHERE id IN ({marks})"
-        )));
-        for m in &ask {
-            q = q.bind(m.to_string());
-        }
-        for r in q.fetch_all(&mut *conn).await? {
-            let id: String = r.try_get(0)?;
-            if let Some(m) = ask.iter().find(|m| **m == id) {
-                existing.insert(m);
-            }
-        }
-    }
+    let found = super::existing_missions(&mut *conn, &ask).await?;
+    existing.extend(ask.iter().copied().filter(|m| found.contains(*m)));
     Ok(posts
         .iter()
         .zip(accepted)

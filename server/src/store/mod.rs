@@ -597,6 +597,32 @@ pub(crate) fn values_sql_anonymous(head: &str, cols: usize, rows: usize, tail: &
     values_rows(head, rows * row.len(), rows, tail, |s, _| s.push_str(&row))
 }
 
+/// Which of `ids` are missions, read through `conn` (inside a writer's transaction or
+/// statement sequence, so the answer matches what its inserts saw). One query.
+pub(crate) async fn existing_missions(
+    conn: &mut sqlx::AnyConnection,
+    ids: &[&str],
+) -> Result<std::collections::HashSet<String>, sqlx::Error> {
+    let mut found = std::collections::HashSet::new();
+    if ids.is_empty() {
+        return Ok(found);
+    }
+    let marks = (1..=ids.len())
+        .map(|i| format!("${i}"))
+        .collect::<Vec<_>>()
+        .join(",");
+    let mut q = sqlx::query(sqlx::AssertSqlSafe(format!(
+        "SELECT id FROM missions WHERE id IN ({marks})"
+    )));
+    for m in ids {
+        q = q.bind(m.to_string());
+    }
+    for r in q.fetch_all(&mut *conn).await? {
+        found.insert(r.try_get::<String, _>(0)?);
+    }
+    Ok(found)
+}
+
 /// Whether `e` is the database refusing a write for a constraint of `kind` (a name or
 /// revision already taken, a missing parent row): the callers' typed errors.
 fn violates(e: &sqlx::Error, kind: sqlx::error::ErrorKind) -> bool {

@@ -125,22 +125,7 @@ impl Store {
             .collect();
         missing.sort_unstable();
         missing.dedup();
-        let mut existing = std::collections::HashSet::new();
-        if !missing.is_empty() {
-            let marks = (1..=missing.len())
-                .map(|i| format!("${i}"))
-                .collect::<Vec<_>>()
-                .join(",");
-            let mut q = sqlx::query(sqlx::AssertSqlSafe(format!(
-                "SELECT id FROM missions WHERE id IN ({marks})"
-            )));
-            for m in &missing {
-                q = q.bind(m.to_string());
-            }
-            for r in q.fetch_all(&mut *conn).await? {
-                existing.insert(r.try_get::<String, _>(0)?);
-            }
-        }
+        let existing = super::existing_missions(&mut conn, &missing).await?;
         Ok(rows
             .iter()
             .map(|r| {
