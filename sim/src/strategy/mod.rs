@@ -312,12 +312,49 @@ pub fn replan_command(
     let mut cfg = cfg.clone();
     cfg.plan.verify.acceptance_m = view.aircraft.acceptance_radius_m;
     match planner::replan(&r, dynamic, &cfg, &planner::Termination::none()) {
-        Ok(p) => Command::Replace(Stack {
-            items: p.plan.items,
-            current: p.plan.current_index,
-        }),
+        Ok(p) => {
+            if trace_plans() {
+                trace_plan(view, &r, &p.plan);
+            }
+            Command::Replace(Stack {
+                items: p.plan.items,
+                current: p.plan.current_index,
+            })
+        }
         Err(_) => Command::Keep,
     }
+}
+
+/// Whether `JINK_SIM_TRACE` is set: every plan of the bisection strategies is then printed
+/// on stderr, one line each (a diagnostic for one seed at a time, `--threads 1`; the
+/// simulation itself is unchanged).
+fn trace_plans() -> bool {
+    static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *ON.get_or_init(|| std::env::var_os("JINK_SIM_TRACE").is_some())
+}
+
+/// One line of `JINK_SIM_TRACE`: time, position, current index, how long the next fixed
+/// item has been pending, the outcome and the chosen route's verification.
+fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
+    let v = &plan.verification;
+    eprintln!(
+        "plan t={:.1} s pos=({:.0}, {:.0}) current_index={} pending_s={:?} outcome={:?} \
+         near_peak={:.2} graded_peak={:.2} peak={:.2} exposure_m={:.0} length_m={:.0} \
+         added={} conflict={:?}",
+        view.t_s,
+        r.state.p_m[0],
+        r.state.p_m[1],
+        plan.current_index,
+        r.target_pending_s,
+        plan.outcome,
+        v.near_peak_risk,
+        v.graded_peak_risk,
+        v.peak_risk,
+        v.exposure_m,
+        v.length_m,
+        plan.added,
+        v.conflict,
+    );
 }
 
 /// Keeps the stack, deciding every `.0` seconds: the "none" strategy (never, in effect),
