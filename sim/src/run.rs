@@ -167,6 +167,7 @@ pub fn run_with_streams(
     let mut avoid_targets = 0;
     let mut last_target = stack.target().map(|t| t.p_m);
     let mut step = 0usize;
+    let mut inside = vec![false; scenario.spheres.len()];
     if cfg.record_track {
         track.push([0.0, ap.state.p_m[0], ap.state.p_m[1], ap.state.p_m[2]]);
     }
@@ -245,6 +246,9 @@ pub fn run_with_streams(
             last_target = stack.target().map(|t| t.p_m);
         }
         path_len += crate::geometry::dist(before, xy(ap.state.p_m));
+        if crate::strategy::trace_plans() {
+            trace_inside(scenario, &ap.state, &mut inside);
+        }
         step += 1;
         if step.is_multiple_of(judge_every) {
             judge_tel.push((ap.state.t_s, ap.state.p_m));
@@ -310,3 +314,31 @@ pub fn run(scenario: &Scenario, strategy: StrategyKind, cfg: &RunConfig) -> RunR
 
 /// Telemetry parameters re-exported for callers building a [`RunConfig`].
 pub type Telemetry = TelemetryParams;
+
+/// `JINK_SIM_TRACE`: one stderr line each time the aircraft enters or leaves a sphere
+/// (which sphere, when, the aircraft's and the sphere's positions), between the plan lines.
+fn trace_inside(scenario: &Scenario, own: &crate::aircraft::AircraftState, inside: &mut [bool]) {
+    for (k, s) in scenario.spheres.iter().enumerate() {
+        let c = s.track.at(own.t_s);
+        let d = ((own.p_m[0] - c[0]).powi(2)
+            + (own.p_m[1] - c[1]).powi(2)
+            + (own.p_m[2] - c[2]).powi(2))
+        .sqrt()
+            - s.radius_m;
+        if (d < 0.0) != inside[k] {
+            inside[k] = d < 0.0;
+            eprintln!(
+                "{} sphere {k} t={:.1} s pos=({:.0}, {:.0}, {:.0}) centre=({:.0}, {:.0}, {:.0}) radius={:.0}",
+                if d < 0.0 { "enter" } else { "leave" },
+                own.t_s,
+                own.p_m[0],
+                own.p_m[1],
+                own.p_m[2],
+                c[0],
+                c[1],
+                c[2],
+                s.radius_m
+            );
+        }
+    }
+}

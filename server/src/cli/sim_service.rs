@@ -253,6 +253,9 @@ impl HttpPlanner {
             .post(&format!("/api/v1/missions/{id}/plan"), &body)
             .await?;
         let plan: PlanOut = serde_json::from_value(answer).map_err(|e| e.to_string())?;
+        if sim::strategy::trace_plans() {
+            trace_answer(view, &plan);
+        }
         self.revision = plan.revision;
         Ok(super::demo::stack_from_plan(&plan, &self.frame))
     }
@@ -264,6 +267,48 @@ impl HttpPlanner {
         self.live_ms = Some(started.elapsed().as_secs_f64() * 1e3);
         self.plan(&id, view).await
     }
+}
+
+/// One line of `JINK_SIM_TRACE` for a plan the service answered: the simulated time and
+/// position, then what the answer says (outcome, risks, length, the start it planned from,
+/// warnings and the obstacles it left out).
+fn trace_answer(view: &View<'_>, plan: &PlanOut) {
+    let left_out: Vec<&str> = plan
+        .obstacles
+        .iter()
+        .filter(|o| !o.considered)
+        .map(|o| o.id.as_str())
+        .collect();
+    eprintln!(
+        "plan t={:.1} s pos=({:.0}, {:.0}) current_index={} pending_s={:?} outcome={} \
+         risk={:.2} base_risk={:.2} exposure_m={:.0} length_m={:.0} added={} \
+         start_speed={:.1} start_heading={:.0} map_lag={} warnings={:?} left_out={:?} \
+         compute_ms={:.1}",
+        view.t_s,
+        view.own.p_m[0],
+        view.own.p_m[1],
+        plan.current_index,
+        plan.target_pending_s,
+        plan.outcome,
+        plan.risk,
+        plan.base_risk,
+        plan.exposure_m,
+        plan.length_m,
+        plan.added,
+        plan.start.speed_mps,
+        plan.start.heading_deg,
+        plan.map_lag_batches,
+        plan.warnings
+            .iter()
+            .map(|w| if w.code == "turn_radius_assumed" {
+                w.message.split(';').next().unwrap_or_default()
+            } else {
+                w.code.as_str()
+            })
+            .collect::<Vec<_>>(),
+        left_out,
+        plan.compute_ms,
+    );
 }
 
 impl Strategy for HttpPlanner {

@@ -327,8 +327,8 @@ pub fn replan_command(
 
 /// Whether `JINK_SIM_TRACE` is set: every plan of the bisection strategies is then printed
 /// on stderr, one line each (a diagnostic for one seed at a time, `--threads 1`; the
-/// simulation itself is unchanged).
-fn trace_plans() -> bool {
+/// simulation itself is unchanged). Public so that the `server` strategies print theirs.
+pub fn trace_plans() -> bool {
     static ON: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
     *ON.get_or_init(|| std::env::var_os("JINK_SIM_TRACE").is_some())
 }
