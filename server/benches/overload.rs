@@ -114,7 +114,7 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
         .unwrap();
     let tally = Arc::new(Mutex::new(Tally::default()));
     let warm = env_or("JINK_OVERLOAD_WARMUP", 1u32) != 0;
-    let (health, memory, stored, elapsed, warmup) = rt.block_on({
+    let (health, memory, stored, elapsed, warmup, wal_metrics) = rt.block_on({
         let tally = tally.clone();
         let wal = wal.clone();
         async move {
@@ -341,7 +341,23 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
                 }
                 stored += r.send().await.unwrap().json::<Vec<Value>>().await.unwrap().len() as u64;
             }
-            (health, memory, stored, elapsed, warmup)
+            // What the server says of its SQLite WAL's checkpoints.
+            let mut r = client.get(format!("{base}/metrics"));
+            if let Some(a) = &admin {
+                r = r.bearer_auth(a);
+            }
+            let wal_metrics: Vec<String> = r
+                .send()
+                .await
+                .unwrap()
+                .text()
+                .await
+                .unwrap()
+                .lines()
+                .filter(|l| l.starts_with("jink_sqlite_"))
+                .map(str::to_string)
+                .collect();
+            (health, memory, stored, elapsed, warmup, wal_metrics)
         }
     });
     let (final_rss, final_wal) = (rss_mb(pid), file_mb(&wal));
@@ -439,6 +455,10 @@ fn run(auth: bool, seconds: u64, clients: usize, missions: usize) {
             .map(|x| format!("{:.0}", x.1))
             .collect::<Vec<_>>()
             .join(" ")
+    );
+    println!(
+        "  SQLite checkpoints (GET /metrics): {}",
+        wal_metrics.join("; ")
     );
     println!(
         "  observations: {} acknowledged, {} stored",

@@ -49,7 +49,13 @@ async fn metrics(State(state): State<AppState>) -> impl IntoResponse {
             header::CONTENT_TYPE,
             "text/plain; version=0.0.4; charset=utf-8",
         )],
-        state.metrics.render() + &state.interop.render_metrics(),
+        state.metrics.render()
+            + &state.interop.render_metrics()
+            + &state
+                .store
+                .wal()
+                .map(crate::store::wal::Wal::render_metrics)
+                .unwrap_or_default(),
     )
 }
 

@@ -21,6 +21,7 @@ pub mod group_commit;
 pub mod observations;
 pub mod plans;
 pub mod tokens;
+pub mod wal;
 pub mod writer;
 pub mod writers;
 
@@ -61,6 +62,8 @@ pub struct Store {
     group: Option<group_commit::GroupCommit>,
     /// SQLite: the runtime the frequent writes run on ([`writer`]).
     writer: Option<writer::WriterThread>,
+    /// SQLite: what the checkpoints know of the WAL ([`wal`]).
+    wal: Option<std::sync::Arc<wal::Wal>>,
 }
 
 /// Errors opening a store.
@@ -78,13 +81,21 @@ pub enum OpenError {
     Migrate(#[source] sqlx::migrate::MigrateError),
 }
 
-// Checkpoints run in a background task (`checkpoint_loop`), not inside a writer's commit,
-// so that a commit never stalls behind copying the WAL into the database file.
+// Checkpoints run in a background task and, briefly, when the group commit is idle
+// ([`wal`]), not inside a writer's commit, so that a commit never stalls behind copying
+// the WAL into the database file. `journal_size_limit` cuts the WAL file back when it
+// starts over ([`wal::JOURNAL_SIZE_LIMIT_BYTES`]).
 const SQLITE_PRAGMAS: &str = "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL; PRAGMA busy_timeout=10000; \
      PRAGMA foreign_keys=ON; PRAGMA wal_autocheckpoint=0;";
 
-/// How often the SQLite WAL is checkpointed into the database file.
-const CHECKPOINT_PERIOD: Duration = Duration::from_millis(500);
+/// `PRAGMA journal_size_limit` at [`wal::JOURNAL_SIZE_LIMIT_BYTES`], run after
+/// [`SQLITE_PRAGMAS`] on every SQLite connection.
+static JOURNAL_SIZE_LIMIT: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+    format!(
+        "PRAGMA journal_size_limit={}",
+        wal::JOURNAL_SIZE_LIMIT_BYTES
+    )
+});
 
 impl Store {
     /// Opens (creating a SQLite file if needed) and migrates the database at `url`.
@@ -122,6 +133,7 @@ impl Store {
                         .after_connect(|conn, _| {
                             Box::pin(async move {
                                 conn.execute(SQLITE_PRAGMAS).await?;
+                                conn.execute(JOURNAL_SIZE_LIMIT.as_str()).await?;
                                 Ok(())
                             })
                         })
@@ -152,10 +164,14 @@ impl Store {
             write,
             group: None,
             writer: None,
+            wal: None,
         };
         store.migrate().await?;
         if backend == Backend::Sqlite {
-            tokio::spawn(checkpoint_loop(store.read.clone()));
+            let w = wal::Wal::new();
+            let file = wal::database_file(&store.read).await;
+            tokio::spawn(wal::checkpoint_loop(store.read.clone(), file, w.clone()));
+            store.wal = Some(w);
             let writer = writer::WriterThread::spawn().map_err(|e| OpenError::Connect(e.into()))?;
             store.group = Some(group_commit::GroupCommit::spawn(store.clone(), &writer));
             store.writer = Some(writer);
@@ -177,6 +193,11 @@ impl Store {
             }
         }
         .map_err(OpenError::Migrate)
+    }
+
+    /// SQLite: what the checkpoints know of the WAL (`None` on PostgreSQL).
+    pub fn wal(&self) -> Option<&wal::Wal> {
+        self.wal.as_deref()
     }
 
     /// Which database this is.
@@ -487,25 +508,6 @@ pub(crate) fn bind_telemetry<'q>(
         .bind(r.speed_mps)
         .bind(received_us)
         .bind(writer.to_string())
-}
-
-/// Copies the SQLite WAL into the database file in the background (PASSIVE: it never
-/// blocks the writer or readers), keeping the WAL short.
-async fn checkpoint_loop(pool: AnyPool) {
-    let mut tick = tokio::time::interval(CHECKPOINT_PERIOD);
-    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    loop {
-        tick.tick().await;
-        if pool.is_closed() {
-            return;
-        }
-        if let Err(e) = sqlx::query("PRAGMA wal_checkpoint(PASSIVE)")
-            .execute(&pool)
-            .await
-        {
-            tracing::warn!(error = %e, "WAL checkpoint failed");
-        }
-    }
 }
 
 /// `Ok(None)` for an insert that failed because its mission does not exist.
