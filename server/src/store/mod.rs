@@ -169,8 +169,7 @@ impl Store {
         store.migrate().await?;
         if backend == Backend::Sqlite {
             let w = wal::Wal::new();
-            let file = wal::database_file(&store.read).await;
-            tokio::spawn(wal::checkpoint_loop(store.read.clone(), file, w.clone()));
+            tokio::spawn(wal::checkpoint_loop(store.read.clone(), w.clone()));
             store.wal = Some(w);
             let writer = writer::WriterThread::spawn().map_err(|e| OpenError::Connect(e.into()))?;
             store.group = Some(group_commit::GroupCommit::spawn(store.clone(), &writer));

@@ -3,33 +3,48 @@
 //! A WAL starts over (its next write goes to its beginning) only when a checkpoint has
 //! copied all of it into the database file and no reader still reads from it. Under a flood
 //! of writes the background checkpoint never copies all of it, because commits keep
-//! appending while it copies, so the WAL grew by about 13 MB/s (525 MB after 40 s). A
-//! checkpoint on the write connection itself completes (nothing is appended meanwhile), but
-//! each such checkpoint tried before stalled the writer 50-120 ms: a checkpoint that
-//! completes syncs the database file, and the partial checkpoints before it had left every
-//! page they copied dirty in the page cache (SQLite syncs the database file only after a
-//! *complete* checkpoint), so that one sync wrote tens of megabytes.
+//! appending while it copies, so the WAL grew by about 10 MB/s (575-585 MB in a minute of
+//! the overload benchmark). A checkpoint on the write connection itself completes (nothing
+//! is appended meanwhile), but each one tried before stalled the writer 50-120 ms (0.9-1 s
+//! at a 1 GiB bound): it copied what the background had not, and a checkpoint that
+//! completes syncs the database file, writing out every page the background's partial
+//! checkpoints had copied since the last complete one.
 //!
-//! So the work is split:
-//! - [`checkpoint_loop`], in the background on a read connection, every
-//!   [`BACKGROUND_PERIOD`]: a PASSIVE checkpoint (never blocks writer or readers), then,
-//!   when it copied anything, `fdatasync` of the database file from a file handle of its own
-//!   (the sync applies to the file, whichever handle asks), so dirty pages never pile up;
+//! So the work is split, and the writer's share kept small and regular:
+//! - [`checkpoint_loop`], in the background on a read connection: a PASSIVE checkpoint
+//!   (never blocks writer or readers) every [`QUIET_PERIOD`], and every
+//!   [`BACKGROUND_PERIOD`] while the WAL is long ([`FLOOD_FRAMES`]), so that little is left
+//!   to copy;
 //! - [`Wal::on_writer_idle`], on the write connection when the group commit's queue has just
 //!   emptied, at most once per [`WRITER_MIN_INTERVAL`] and only when the WAL holds more than
-//!   [`WRITER_THRESHOLD_FRAMES`]: a PASSIVE checkpoint there copies the few frames the
-//!   background has not and completes, so the next write starts the WAL over; with
-//!   `journal_size_limit` ([`JOURNAL_SIZE_LIMIT_BYTES`]) the file is cut back then.
+//!   [`WRITER_THRESHOLD_FRAMES`]: a PASSIVE checkpoint there copies the rest and completes,
+//!   so the next write starts the WAL over and the sync covers about a second of copying;
+//!   with `journal_size_limit` ([`JOURNAL_SIZE_LIMIT_BYTES`]) a WAL file over 64 MiB is cut
+//!   back then.
+//!
+//! Tried and not kept: syncing the database file from the background after each of its
+//! copies (`fdatasync` on a handle of its own), so that the writer's sync would find nothing
+//! left: writer checkpoints of at most 3.9-8.8 ms, but two of five 60 s floods had
+//! stalls of 178-284 ms and of 1.2 s inside the handlers, the two without it none.
 
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicI64, Ordering};
 use std::time::{Duration, Instant};
 
 use sqlx::{AnyPool, Row};
 
-/// How often the background checkpoint runs.
+/// How often the background checkpoint runs while the WAL is long
+/// ([`FLOOD_FRAMES`])...
 pub const BACKGROUND_PERIOD: Duration = Duration::from_millis(100);
+
+/// ... and how often otherwise: at a flight's load the WAL stays under 1 MB, and a
+/// checkpoint every 100 ms (with a sync of the database file) took ingest's p99 from 25-41 ms
+/// to 55-161 ms in `plan_load` (each checkpoint also syncs the WAL, which the writer
+/// appends to).
+pub const QUIET_PERIOD: Duration = Duration::from_millis(500);
+
+/// The WAL is long (a flood of writes) above this many frames (4 MiB of 4 KiB pages).
+pub const FLOOD_FRAMES: i64 = 1024;
 
 /// The writer checkpoints only when the WAL holds more frames than this (4096 pages of
 /// 4 KiB: 16 MiB)...
@@ -157,54 +172,25 @@ impl Wal {
     }
 }
 
-/// The main database file of `pool` (`PRAGMA database_list`), `None` in memory.
-pub async fn database_file(pool: &AnyPool) -> Option<PathBuf> {
-    let rows = sqlx::query("PRAGMA database_list")
-        .fetch_all(pool)
-        .await
-        .ok()?;
-    rows.iter().find_map(|r| {
-        let name: String = r.try_get(1).ok()?;
-        let file: String = r.try_get(2).ok()?;
-        (name == "main" && !file.is_empty()).then(|| PathBuf::from(file))
-    })
-}
-
 /// Copies the SQLite WAL into the database file in the background (PASSIVE: it never
-/// blocks the writer or readers) and syncs what it copied, keeping the WAL's copied part
-/// on disk so that the writer's checkpoints ([`Wal::on_writer_idle`]) stay short.
-pub async fn checkpoint_loop(pool: AnyPool, file: Option<PathBuf>, wal: Arc<Wal>) {
+/// blocks the writer or readers), often while the WAL is long, so that the writer's
+/// checkpoints ([`Wal::on_writer_idle`]) have little left to copy.
+pub async fn checkpoint_loop(pool: AnyPool, wal: Arc<Wal>) {
     let mut tick = tokio::time::interval(BACKGROUND_PERIOD);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-    let mut synced_through = 0;
+    let mut last: Option<Instant> = None;
     loop {
         tick.tick().await;
         if pool.is_closed() {
             return;
         }
+        let flood = wal.frames() > FLOOD_FRAMES;
+        if !flood && last.is_some_and(|l| l.elapsed() < QUIET_PERIOD) {
+            continue;
+        }
+        last = Some(Instant::now());
         match checkpoint(&pool).await {
-            Ok((_, log, copied)) => {
-                wal.frames.store(log, Ordering::Relaxed);
-                // A restarted WAL counts from 0 again.
-                if copied < synced_through {
-                    synced_through = 0;
-                }
-                if copied > synced_through
-                    && let Some(f) = file.clone()
-                {
-                    let synced = tokio::task::spawn_blocking(move || {
-                        std::fs::File::open(f).and_then(|f| f.sync_data())
-                    })
-                    .await;
-                    match synced {
-                        Ok(Ok(())) => synced_through = copied,
-                        Ok(Err(e)) => {
-                            tracing::warn!(error = %e, "syncing the database file failed")
-                        }
-                        Err(e) => tracing::warn!(error = %e, "syncing the database file failed"),
-                    }
-                }
-            }
+            Ok((_, log, _)) => wal.frames.store(log, Ordering::Relaxed),
             Err(e) => tracing::warn!(error = %e, "WAL checkpoint failed"),
         }
     }
