@@ -153,8 +153,9 @@ const TRACK_MAX_S: f64 = 2.0;
 /// [`TRACK_MAX_S`] before it, over the time between. The interop telemetry forms carry no
 /// speed; without this a plan would time the route at the request's cruise speed (20 m/s
 /// by default) whatever the aircraft flies. In a turn the chord is shorter than the arc
-/// flown, so the estimate is low there. No estimate when no sample is in range: the
-/// request's cruise speed is used.
+/// flown (2 % at 20 degrees a second over 2 s), so the chord is lengthened to the arc of a
+/// steady turn through the heading change between the two samples ([`arc_over_chord`]).
+/// No estimate when no sample is in range: the request's cruise speed is used.
 pub(crate) fn with_track_speed(
     newest: &crate::store::TelemetryRow,
     track: &[crate::store::TelemetryRow],
@@ -171,12 +172,28 @@ pub(crate) fn with_track_speed(
     if let Some(r) = from {
         let a = frame.to_enu(r.lat_deg, r.lon_deg);
         let b = frame.to_enu(newest.lat_deg, newest.lon_deg);
-        let v = (b[0] - a[0]).hypot(b[1] - a[1]) / (newest.t_s - r.t_s);
+        let turn = (newest.heading_deg - r.heading_deg).to_radians();
+        let v = (b[0] - a[0]).hypot(b[1] - a[1]) * arc_over_chord(turn) / (newest.t_s - r.t_s);
         if v.is_finite() && v > 0.0 && v <= wire::telemetry::MAX_SPEED_MPS {
             at.speed_mps = Some(v);
         }
     }
     at
+}
+
+/// How much longer the arc of a steady turn through `turn_rad` (any angle; wrapped to
+/// [-pi, pi]) is than its chord: (x/2) / sin(x/2). A heading change above 150 degrees
+/// between two samples at most 2 s apart is no steady turn of a fixed-wing aircraft (a
+/// heading that wraps or jumps): the chord is then taken as it is.
+fn arc_over_chord(turn_rad: f64) -> f64 {
+    let x =
+        (turn_rad + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    let half = x.abs() / 2.0;
+    if half < 1e-9 || half > 75f64.to_radians() {
+        1.0
+    } else {
+        half / half.sin()
+    }
 }
 
 /// The largest turn radius a plan accepts, metres.
@@ -625,6 +642,47 @@ mod tests {
         assert_eq!(with_track_speed(&lone[0], &lone, &frame).speed_mps, None);
         let gap = [sample(100.0, 0.0, None), sample(103.0, 48.0, None)];
         assert_eq!(with_track_speed(&gap[1], &gap, &frame).speed_mps, None);
+        // In a steady turn (20 degrees a second at 20 m/s, 5 Hz) the chord of 2 s is 2 %
+        // shorter than the arc flown: the estimate is the arc's speed, through north too.
+        let (r_m, w) = (20.0 / 20f64.to_radians(), 20f64.to_radians());
+        let turning: Vec<TelemetryRow> = (0..20)
+            .map(|k| {
+                let t = 0.2 * f64::from(k);
+                let psi = -0.5 + w * t; // heading from north, through 0 into the east
+                let (e, n) = (r_m * (1.0 - psi.cos()), r_m * psi.sin());
+                let mut row = sample(100.0 + t, 0.0, None);
+                let (lat, lon) = frame.to_geodetic([e, n]);
+                row.lat_deg = lat;
+                row.lon_deg = lon;
+                row.heading_deg = psi.to_degrees().rem_euclid(360.0);
+                row
+            })
+            .collect();
+        let v = with_track_speed(turning.last().unwrap(), &turning, &frame)
+            .speed_mps
+            .expect("estimated");
+        assert!((v - 20.0).abs() < 0.02, "{v}");
+        let chord = {
+            let (a, b) = (&turning[9], &turning[19]);
+            let (pa, pb) = (
+                frame.to_enu(a.lat_deg, a.lon_deg),
+                frame.to_enu(b.lat_deg, b.lon_deg),
+            );
+            (pb[0] - pa[0]).hypot(pb[1] - pa[1]) / (b.t_s - a.t_s)
+        };
+        assert!(chord < 19.8, "the chord alone reads {chord}");
+        assert_eq!(arc_over_chord(0.0), 1.0);
+        assert_eq!(arc_over_chord(std::f64::consts::PI), 1.0);
+        assert!(
+            (arc_over_chord(-(60f64.to_radians())) - arc_over_chord(60f64.to_radians())).abs()
+                < 1e-12
+        );
+        assert!(
+            (arc_over_chord((360f64 - 40.0).to_radians()) - arc_over_chord(40f64.to_radians()))
+                .abs()
+                < 1e-9
+        );
+
         // Two samples at the same place: 0 m/s is no speed to time a route by.
         let still = [sample(100.0, 5.0, None), sample(101.0, 5.0, None)];
         assert_eq!(with_track_speed(&still[1], &still, &frame).speed_mps, None);
