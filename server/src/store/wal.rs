@@ -145,9 +145,7 @@ impl Wal {
             Err(e) => tracing::warn!(error = %e, "WAL checkpoint on the writer failed"),
         }
     }
-}
 
-impl Wal {
     /// The Prometheus text of the WAL's state: its length at the last checkpoint, the
     /// writer's checkpoints (tried, complete) and the time they held the writer.
     pub fn render_metrics(&self) -> String {
