@@ -10,9 +10,12 @@
 
 use std::time::Instant;
 
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::aircraft::{AircraftParams, Autopilot, SteerOverride};
+use crate::aircraft::{AircraftParams, AircraftState, Autopilot, SteerOverride};
 use crate::geometry::xy;
 use crate::lidar::{cross_sections, scan};
 use crate::mission::{ItemKind, initial_stack, straight_length_m};
@@ -35,6 +38,37 @@ pub struct RunConfig {
     pub dt_s: f64,
     /// Keep the aircraft's track in the result (for plots).
     pub record_track: bool,
+    /// Noise on the aircraft's own state as strategies see it (its telemetry).
+    pub own_noise: OwnNoise,
+}
+
+/// Gaussian noise on the aircraft's own state as the strategies see it (the telemetry a
+/// ground station receives: an autopilot's heading and GPS position are estimates). The
+/// flown aircraft and the judges' scoring keep the true state. Zero by default.
+///
+/// Deterministic: drawn from the scenario's seed, one draw per decision, so every strategy
+/// with the same replan period sees the same noise on a scenario.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct OwnNoise {
+    /// Standard deviation of the heading, degrees.
+    pub heading_deg: f64,
+    /// Standard deviation of each horizontal coordinate, metres.
+    pub position_m: f64,
+}
+
+impl OwnNoise {
+    /// `state` as the telemetry reports it: heading and horizontal position disturbed.
+    fn apply(&self, state: AircraftState, rng: &mut ChaCha8Rng) -> AircraftState {
+        if self.heading_deg <= 0.0 && self.position_m <= 0.0 {
+            return state;
+        }
+        let mut g = || -> f64 { StandardNormal.sample(rng) };
+        let mut out = state;
+        out.heading_rad += self.heading_deg.max(0.0).to_radians() * g();
+        out.p_m[0] += self.position_m.max(0.0) * g();
+        out.p_m[1] += self.position_m.max(0.0) * g();
+        out
+    }
 }
 
 impl Default for RunConfig {
@@ -45,6 +79,7 @@ impl Default for RunConfig {
             judge_rate_hz: 5.0,
             dt_s: 0.1,
             record_track: true,
+            own_noise: OwnNoise::default(),
         }
     }
 }
@@ -168,6 +203,7 @@ pub fn run_with_streams(
     let mut last_target = stack.target().map(|t| t.p_m);
     let mut step = 0usize;
     let mut inside = vec![false; scenario.spheres.len()];
+    let mut own_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x0_4E_0153);
     if cfg.record_track {
         track.push([0.0, ap.state.p_m[0], ap.state.p_m[1], ap.state.p_m[2]]);
     }
@@ -194,7 +230,7 @@ pub fn run_with_streams(
             });
             let view = View {
                 t_s: t,
-                own: ap.state,
+                own: cfg.own_noise.apply(ap.state, &mut own_rng),
                 own_track: &judge_tel,
                 aircraft: &cfg.aircraft,
                 mission: m,

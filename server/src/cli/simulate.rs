@@ -101,6 +101,16 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 17.0)]
     pub l1_period: f64,
 
+    /// Standard deviation of the noise on the aircraft's heading as the strategies see it
+    /// (its telemetry), degrees; the flown aircraft and the scoring keep the true state.
+    #[arg(long, default_value_t = 0.0)]
+    pub own_heading_noise_deg: f64,
+
+    /// Standard deviation of the noise on each horizontal coordinate of the aircraft's
+    /// position as the strategies see it, metres.
+    #[arg(long, default_value_t = 0.0)]
+    pub own_position_noise_m: f64,
+
     /// Also write the prediction report (stages vs constant velocity per behaviour) over
     /// this many seeds per behaviour (0 = skip).
     #[arg(long, default_value_t = 0)]
@@ -192,6 +202,20 @@ pub fn run(args: SimulateArgs) -> ExitCode {
             "m",
         ),
         ("--l1-period", args.l1_period, 5.0, 60.0, "s"),
+        (
+            "--own-heading-noise-deg",
+            args.own_heading_noise_deg,
+            0.0,
+            30.0,
+            "degrees",
+        ),
+        (
+            "--own-position-noise-m",
+            args.own_position_noise_m,
+            0.0,
+            50.0,
+            "m",
+        ),
     ] {
         if !(v.is_finite() && (lo..=hi).contains(&v)) {
             eprintln!("jink simulate: {flag} must be in [{lo}, {hi}] {unit}");
@@ -213,6 +237,10 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         .acceptance_radius_m(args.acceptance_radius)
         .l1_period_s(args.l1_period);
     cfg.scenario.aircraft_speed_mps = args.aircraft_speed;
+    cfg.run.own_noise = sim::run::OwnNoise {
+        heading_deg: args.own_heading_noise_deg,
+        position_m: args.own_position_noise_m,
+    };
     let cfg = cfg;
     let make = |family: Family, seed: u64| -> Scenario {
         match &mission {
