@@ -70,8 +70,8 @@ pub struct StartOut {
     /// Heading, degrees true.
     pub heading_deg: f64,
     /// Ground speed, m/s: the newest telemetry's own, or when it reported none (the
-    /// interop telemetry forms carry none), the ground speed from the newest sample 0.5-2 s
-    /// before it; 0 = unknown (the route is then timed at the request's cruise speed).
+    /// interop telemetry forms carry none), the median ground speed over the pairs of
+    /// samples 0.5-2 s apart within its last 5 s; 0 = unknown (the route is then timed at the request's cruise speed).
     pub speed_mps: f64,
 }
 
