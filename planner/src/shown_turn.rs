@@ -89,8 +89,9 @@ impl Default for ShownTurnParams {
 /// the second difference is noise alone (`h3 - h2 - r (h2 - h1)`, `r` the ratio of the
 /// gaps, has variance `(1 + (1 + r)^2 + r^2) sigma^2`); a roll into or out of a turn is
 /// a few triples of many, so the median absolute value (1.4826 MAD) reads the noise
-/// through them. 0 with fewer than five triples.
-pub fn heading_noise_rad(samples: &[HeadingSample], params: &ShownTurnParams) -> f64 {
+/// through them. `None` with fewer than [`MIN_NOISE_TRIPLES`] triples: too few to tell
+/// noise from turn.
+pub fn heading_noise_rad(samples: &[HeadingSample], params: &ShownTurnParams) -> Option<f64> {
     let mut e: Vec<f64> = samples
         .windows(3)
         .filter_map(|w| {
@@ -105,13 +106,19 @@ pub fn heading_noise_rad(samples: &[HeadingSample], params: &ShownTurnParams) ->
             norm.is_finite().then_some(norm)
         })
         .collect();
-    if e.len() < 5 {
-        return 0.0;
+    if e.len() < MIN_NOISE_TRIPLES {
+        return None;
     }
     let mid = e.len() / 2;
     let (_, median, _) = e.select_nth_unstable_by(mid, f64::total_cmp);
-    1.4826 * *median
+    Some(1.4826 * *median)
 }
+
+/// The fewest consecutive triples [`heading_noise_rad`] reads the noise from. Fewer samples
+/// show no bank at all: the first plans of a flight read 3-4 samples of the turn toward the
+/// first waypoint, and a reading without its noise discount there was kept for the whole
+/// flight (2 degrees of heading noise: 38.2 degrees shown for a 35-degree aircraft).
+pub const MIN_NOISE_TRIPLES: usize = 8;
 
 /// The largest bank that `samples` (in time order) show the aircraft sustaining over two
 /// consecutive windows, before the margin; `None` when they show no turn.
@@ -119,7 +126,7 @@ pub fn shown_bank_rad(samples: &[HeadingSample], params: &ShownTurnParams) -> Op
     // A window's turn, less `noise_k` standard deviations of the difference of two noisy
     // headings.
     let discount =
-        params.noise_k.max(0.0) * std::f64::consts::SQRT_2 * heading_noise_rad(samples, params);
+        params.noise_k.max(0.0) * std::f64::consts::SQRT_2 * heading_noise_rad(samples, params)?;
     // Without reported speeds, the median over the windows of the arc of a steady turn
     // through each chord: one window's chord carries its two positions' noise (1 m on a
     // 20 m chord is 7% of the speed, and the largest bank of a flight is then read from its
@@ -371,11 +378,11 @@ mod tests {
         out
     }
 
-    /// The largest bank shown over a flight read as the server reads it: the newest 32
-    /// samples at each plan, the largest kept.
+    /// The largest bank shown over a flight read as the server reads it: the newest (at
+    /// most) 32 samples at each plan from the first, the largest kept.
     fn largest_over_flight(s: &[HeadingSample], params: &ShownTurnParams) -> f64 {
-        (0..s.len().saturating_sub(32))
-            .filter_map(|i| shown_bank_rad(&s[i..i + 32], params))
+        (1..=s.len())
+            .filter_map(|n| shown_bank_rad(&s[n.saturating_sub(32)..n], params))
             .fold(0.0, f64::max)
             .to_degrees()
     }
@@ -384,14 +391,31 @@ mod tests {
     fn the_heading_noise_is_read_from_the_samples_through_the_turns() {
         for sigma in [0.5, 2.0, 4.0] {
             let s = noisy_flight(7, 20, 35.0, sigma, 1.0);
-            let got = heading_noise_rad(&s, &ShownTurnParams::default()).to_degrees();
+            let got = heading_noise_rad(&s, &ShownTurnParams::default())
+                .expect("enough samples")
+                .to_degrees();
             assert!(
                 (got - sigma).abs() < 0.2 * sigma,
                 "sigma {sigma}: read {got}"
             );
         }
         let clean = noisy_flight(7, 20, 35.0, 0.0, 0.0);
-        assert_eq!(heading_noise_rad(&clean, &ShownTurnParams::default()), 0.0);
+        assert_eq!(
+            heading_noise_rad(&clean, &ShownTurnParams::default()),
+            Some(0.0)
+        );
+    }
+
+    #[test]
+    fn too_few_samples_to_read_the_noise_show_no_bank() {
+        // The first seconds of a flight: a hard turn, four samples, the noise unknown.
+        let s = flight(20.0, 35.0, 0.0, 3.0, 1.0, 3.0, false);
+        assert_eq!(s.len(), 4);
+        assert_eq!(heading_noise_rad(&s, &ShownTurnParams::default()), None);
+        assert_eq!(shown_bank_rad(&s, &ShownTurnParams::default()), None);
+        // Once there are enough, the turn shows.
+        let s = flight(20.0, 35.0, 0.0, 12.0, 1.0, 0.0, false);
+        assert!(shown_bank_rad(&s, &ShownTurnParams::default()).is_some());
     }
 
     #[test]
