@@ -127,34 +127,9 @@ pub fn shown_bank_rad(samples: &[HeadingSample], params: &ShownTurnParams) -> Op
     // headings.
     let discount =
         params.noise_k.max(0.0) * std::f64::consts::SQRT_2 * heading_noise_rad(samples, params)?;
-    // Without reported speeds, the median over the windows of the arc of a steady turn
-    // through each chord: one window's chord carries its two positions' noise (1 m on a
-    // 20 m chord is 7% of the speed, and the largest bank of a flight is then read from its
-    // fastest-looking window), the median of all of them hardly any.
-    let mut speeds: Vec<f64> = Vec::new();
-    for (i, a) in samples.iter().enumerate() {
-        for b in &samples[i + 1..] {
-            let dt = b.t_s - a.t_s;
-            if dt < params.min_span_s {
-                continue;
-            }
-            if dt > params.max_span_s {
-                break;
-            }
-            let half = 0.5 * geom::wrap_pi(b.heading_rad - a.heading_rad).abs();
-            let arc = if half < 1e-9 { 1.0 } else { half / half.sin() };
-            let v = dist(a.p_m, b.p_m) * arc / dt;
-            if v.is_finite() && v > 0.0 {
-                speeds.push(v);
-            }
-        }
-    }
-    let track_speed = (!speeds.is_empty()).then(|| {
-        let mid = speeds.len() / 2;
-        *speeds.select_nth_unstable_by(mid, f64::total_cmp).1
-    });
-    // Each window: from a sample to every one `min_span_s` to `max_span_s` later.
-    let mut windows: Vec<(usize, usize, f64)> = Vec::new();
+    // Every window: from a sample to every one `min_span_s` to `max_span_s` later, with its
+    // span and heading change.
+    let mut spans: Vec<(usize, usize, f64, f64)> = Vec::new();
     for (i, a) in samples.iter().enumerate() {
         for (j, b) in samples.iter().enumerate().skip(i + 1) {
             let dt = b.t_s - a.t_s;
@@ -164,28 +139,49 @@ pub fn shown_bank_rad(samples: &[HeadingSample], params: &ShownTurnParams) -> Op
             if dt > params.max_span_s {
                 break;
             }
-            let turn = geom::wrap_pi(b.heading_rad - a.heading_rad);
-            if !turn.is_finite() || turn.abs() < params.min_turn_rad {
-                continue;
-            }
-            // Ground speed: reported, else the track's (see `track_speed`).
-            let v = match (a.speed_mps, b.speed_mps) {
-                (Some(va), Some(vb)) => 0.5 * (va + vb),
-                _ => match track_speed {
-                    Some(v) => v,
-                    None => continue,
-                },
-            };
-            if !(v.is_finite() && v > 0.0) {
-                continue;
-            }
-            let shown = turn.abs() - discount;
-            if shown <= 0.0 {
-                continue;
-            }
-            let bank = (v * shown / dt / G_MPS2).atan().copysign(turn);
-            windows.push((i, j, bank));
+            spans.push((i, j, dt, geom::wrap_pi(b.heading_rad - a.heading_rad)));
         }
+    }
+    // Without reported speeds, the median over the windows of the arc of a steady turn
+    // through each chord: one window's chord carries its two positions' noise (1 m on a
+    // 20 m chord is 7% of the speed, and the largest bank of a flight is then read from its
+    // fastest-looking window), the median of all of them hardly any.
+    let mut speeds: Vec<f64> = spans
+        .iter()
+        .map(|&(i, j, dt, turn)| {
+            let half = 0.5 * turn.abs();
+            let arc = if half < 1e-9 { 1.0 } else { half / half.sin() };
+            dist(samples[i].p_m, samples[j].p_m) * arc / dt
+        })
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    let track_speed = (!speeds.is_empty()).then(|| {
+        let mid = speeds.len() / 2;
+        *speeds.select_nth_unstable_by(mid, f64::total_cmp).1
+    });
+    // The windows that turned, each with its bank.
+    let mut windows: Vec<(usize, usize, f64)> = Vec::new();
+    for &(i, j, dt, turn) in &spans {
+        if !turn.is_finite() || turn.abs() < params.min_turn_rad {
+            continue;
+        }
+        // Ground speed: reported, else the track's (see `track_speed`).
+        let v = match (samples[i].speed_mps, samples[j].speed_mps) {
+            (Some(va), Some(vb)) => 0.5 * (va + vb),
+            _ => match track_speed {
+                Some(v) => v,
+                None => continue,
+            },
+        };
+        if !(v.is_finite() && v > 0.0) {
+            continue;
+        }
+        let shown = turn.abs() - discount;
+        if shown <= 0.0 {
+            continue;
+        }
+        let bank = (v * shown / dt / G_MPS2).atan().copysign(turn);
+        windows.push((i, j, bank));
     }
     // Two consecutive windows (the second starts where the first ended) turning the same
     // way: the smaller bank of the two. Windows are in order of their first sample.
