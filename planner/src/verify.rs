@@ -75,6 +75,14 @@ pub struct VerifyParams {
     /// target ([`crate::Replan::target_pending_s`]), so putting a waypoint off is bounded in
     /// total, not per replan. Default 60.
     pub delay_credit_s: f64,
+    /// Once the delay credit is spent (the next waypoint overdue), the polyline beyond the
+    /// horizon is read too, at the horizon's last slice and against the limit of its
+    /// progress clock: the far prediction there is the best guess of what lies beyond.
+    /// Without it a route that loops away and reaches the waypoint's crowded neighbourhood
+    /// after the horizon read no risk there at all, so every plan looped again and the
+    /// aircraft circled until the scenario ended (Webster Field with 10 mixed spheres,
+    /// seed 152: one waypoint pending for 600 s). Default true.
+    pub read_past_horizon: bool,
 }
 
 /// The judges' waypoint capture distance, 100 ft in metres.
@@ -90,6 +98,7 @@ impl Default for VerifyParams {
             capture_m: 25.0,
             acceptance_m: 10.0,
             delay_credit_s: 60.0,
+            read_past_horizon: true,
         }
     }
 }
@@ -440,6 +449,35 @@ impl Acc<'_> {
         r
     }
 
+    /// Reads a point the route reaches after the horizon (`env.horizon_end_s`) at the
+    /// horizon's last slice, against the limit at the progress clock `t_limit_s` (at most
+    /// the horizon's end): it counts toward the graded peak, the conflict and (by the
+    /// caller) the exposure; the reported peak and the near window stay within the horizon.
+    fn risk_past_horizon(&mut self, env: &LegEnv<'_>, p: Point, t: f64, t_limit_s: f64) -> f64 {
+        let t_read = env.horizon_end_s;
+        let r = env.risk.risk(p, t_read);
+        let t_limit_s = t_limit_s.min(t_read);
+        let limit = if t_limit_s <= self.near_end_s {
+            self.safe_risk
+        } else {
+            self.safe_risk + self.limit_slope * (t_limit_s - self.near_end_s)
+        };
+        let graded = if limit > 0.0 {
+            r * self.safe_risk / limit
+        } else {
+            r
+        };
+        self.out.graded_peak_risk = self.out.graded_peak_risk.max(graded);
+        if r > limit && self.out.conflict.is_none() {
+            self.out.conflict = Some(Conflict::Risk {
+                risk: r,
+                p_m: p,
+                t_s: t,
+            });
+        }
+        r
+    }
+
     /// Starts a new path: every cylinder is checked at its first point.
     fn restart_path(&mut self) {
         self.next_check_s
@@ -546,6 +584,7 @@ pub fn verify_route_to_beat<'e>(
     let step = params.step_m.max(0.5);
     let horizon_end = env0.horizon_end_s;
     let delay_credit_s = params.delay_credit_s;
+    let past_horizon = params.read_past_horizon && delay_credit_s <= 0.0;
 
     // Where the aircraft is now counts too (nothing can change it, but it is real risk).
     acc.cylinders(state.alt_m, state.p_m, state.t_s, 0.0);
@@ -571,6 +610,13 @@ pub fn verify_route_to_beat<'e>(
             acc.cylinders(alt, p, tk, acc.out.length_m + f * l);
             if tk <= horizon_end {
                 acc.risk(&env, p, tk, progress.at(p));
+            } else if past_horizon {
+                // Beyond the horizon only the polyline is checked: its exposure there
+                // stands for the flown path's, so a loop that puts the crowded
+                // neighbourhood off past the horizon meets it there as a straight route
+                // meets it within.
+                let r = acc.risk_past_horizon(&env, p, tk, progress.at(p));
+                acc.out.exposure_m += r * l / n as f64;
             }
         }
         progress.pass(it);
@@ -1215,6 +1261,70 @@ mod tests {
                 0.0
             }
         }
+    }
+
+    #[test]
+    fn an_overdue_waypoint_put_off_past_the_horizon_still_meets_its_neighbourhood() {
+        // The waypoint is 500 m north in the ring. A loop through (800, -300) and
+        // (800, 800) reaches the ring 2.75 km on, at t = 137 s: after the 60 s horizon,
+        // where no risk used to be read, so with the credit spent the loop was clear and
+        // the direct route (the ring at t = 22 s, limit 0.11) was not; every replan
+        // looped again (Webster Field with mixed spheres, seed 152: one waypoint pending
+        // for 600 s). Read past the horizon at its last slice, against the limit of the
+        // progress clock (the ring's entry 524 m from the start in a straight line: 26 s,
+        // limit 0.13), the loop meets the ring as the direct route does.
+        let wp = StackItem::mission(0, [0.0, 500.0], 100.0);
+        let lp = [
+            StackItem::avoid([800.0, -300.0], 100.0),
+            StackItem::avoid([800.0, 800.0], 100.0),
+            wp,
+        ];
+        let spent = VerifyParams {
+            delay_credit_s: 0.0,
+            ..VerifyParams::default()
+        };
+        let blind = VerifyParams {
+            read_past_horizon: false,
+            ..spent
+        };
+        let direct = check_with(&Ring, &[], &state(0.0), &[wp], &spent);
+        assert!(!direct.is_clear(0.05), "{direct:?}");
+        let was = check_with(&Ring, &[], &state(0.0), &lp, &blind);
+        assert!(
+            was.is_clear(0.05),
+            "without the rule the loop is clear: {was:?}"
+        );
+        assert!(was.better_than(&direct, 0.05, 0.25));
+        let now = check_with(&Ring, &[], &state(0.0), &lp, &spent);
+        assert!(!now.is_clear(0.05), "{now:?}");
+        assert!(
+            matches!(now.conflict, Some(Conflict::Risk { t_s, .. }) if t_s > 120.0),
+            "the ring is met past the horizon: {now:?}"
+        );
+        let want = 0.2 * 0.05 / (0.05 + 0.25 * (524.0 / 20.0 - 10.0) / 50.0);
+        assert!((now.graded_peak_risk - want).abs() < 0.005, "{now:?}");
+        // Its exposure there counts as the direct route's does within the horizon (the
+        // loop's polyline ends at the ring's centre: 60 m at 0.2).
+        assert!((now.exposure_m - 12.0).abs() < 1.0, "{now:?}");
+        // The reported peak and the near window stay within the horizon.
+        assert_eq!(now.peak_risk, 0.0);
+        assert_eq!(now.near_peak_risk, 0.0);
+        // With credit left the waypoint is not overdue: a wait is still credited as before.
+        let fresh = check(&Ring, &[], &state(0.0), &lp);
+        assert!(fresh.is_clear(0.05), "{fresh:?}");
+        assert_eq!(
+            fresh,
+            check_with(
+                &Ring,
+                &[],
+                &state(0.0),
+                &lp,
+                &VerifyParams {
+                    read_past_horizon: false,
+                    ..VerifyParams::default()
+                }
+            )
+        );
     }
 
     #[test]
