@@ -118,6 +118,21 @@ fn a_waypoint_the_autopilot_would_pass_too_wide_is_captured_with_a_straight_appr
 }
 
 #[test]
+fn an_overdue_waypoint_is_not_put_off_past_the_horizon_until_the_scenario_ends() {
+    // `mixed` seed 147: with the delay credit spent, every plan was `exact` or ranked by
+    // a risk that stopped at the 60 s horizon, and a route that looped away first reached
+    // the waypoint's crowded neighbourhood after it, where nothing was read: the loop won
+    // at every replan and the scenario ended with 4 of 6 waypoints (commit c7973c4). Read
+    // past the horizon for an overdue waypoint (planner::verify::VerifyParams::
+    // read_past_horizon), it flies all 6 in 383 s.
+    let s = generate(Family::Mixed, 147, &ScenarioParams::default());
+    let r = run(&s, StrategyKind::BisectionAuto, &RunConfig::default()).metrics;
+    assert!(r.completed, "{r:?}");
+    assert_eq!(r.waypoints_captured, r.waypoints, "{r:?}");
+    assert_eq!((r.spheres_hit, r.cylinders_hit), (0, 0), "{r:?}");
+}
+
+#[test]
 fn a_waypoint_in_a_slow_spheres_neighbourhood_is_not_put_off_until_the_scenario_ends() {
     // `mixed` seed 21: a slow sphere keeps the first waypoint's neighbourhood at far risk
     // 0.2-0.4. Graded on each route's own clock, a detour that reached it later read that
