@@ -427,7 +427,13 @@ impl Acc<'_> {
             self.out.near_peak_risk = self.out.near_peak_risk.max(r);
             self.out.near_exposure += r;
         }
-        let t_limit_s = t_limit_s.min(t);
+        self.grade(r, p, t, t_limit_s.min(t));
+        r
+    }
+
+    /// Grades risk `r` read at `p` (reached at `t`) against the time-graded limit at
+    /// `t_limit_s`: the graded peak, and the first conflict when `r` is over the limit.
+    fn grade(&mut self, r: f64, p: Point, t: f64, t_limit_s: f64) {
         let limit = if t_limit_s <= self.near_end_s {
             self.safe_risk
         } else {
@@ -446,7 +452,6 @@ impl Acc<'_> {
                 t_s: t,
             });
         }
-        r
     }
 
     /// Reads a point the route reaches after the horizon (`env.horizon_end_s`) at the
@@ -456,25 +461,7 @@ impl Acc<'_> {
     fn risk_past_horizon(&mut self, env: &LegEnv<'_>, p: Point, t: f64, t_limit_s: f64) -> f64 {
         let t_read = env.horizon_end_s;
         let r = env.risk.risk(p, t_read);
-        let t_limit_s = t_limit_s.min(t_read);
-        let limit = if t_limit_s <= self.near_end_s {
-            self.safe_risk
-        } else {
-            self.safe_risk + self.limit_slope * (t_limit_s - self.near_end_s)
-        };
-        let graded = if limit > 0.0 {
-            r * self.safe_risk / limit
-        } else {
-            r
-        };
-        self.out.graded_peak_risk = self.out.graded_peak_risk.max(graded);
-        if r > limit && self.out.conflict.is_none() {
-            self.out.conflict = Some(Conflict::Risk {
-                risk: r,
-                p_m: p,
-                t_s: t,
-            });
-        }
+        self.grade(r, p, t, t_limit_s.min(t_read));
         r
     }
 
