@@ -117,6 +117,16 @@ fn a_waypoint_the_autopilot_would_pass_too_wide_is_captured_with_a_straight_appr
     }
 }
 
+/// `mc-auto` in closed loop on `family` seed `seed`: the run completes, every waypoint
+/// is captured, nothing is hit.
+fn flies_every_waypoint_clear(family: Family, seed: u64) {
+    let s = generate(family, seed, &ScenarioParams::default());
+    let r = run(&s, StrategyKind::BisectionAuto, &RunConfig::default()).metrics;
+    assert!(r.completed, "{r:?}");
+    assert_eq!(r.waypoints_captured, r.waypoints, "{r:?}");
+    assert_eq!((r.spheres_hit, r.cylinders_hit), (0, 0), "{r:?}");
+}
+
 #[test]
 fn an_overdue_waypoint_is_not_put_off_past_the_horizon_until_the_scenario_ends() {
     // `mixed` seed 147: with the delay credit spent, every plan was `exact` or ranked by
@@ -125,11 +135,7 @@ fn an_overdue_waypoint_is_not_put_off_past_the_horizon_until_the_scenario_ends()
     // at every replan and the scenario ended with 4 of 6 waypoints (commit c7973c4). Read
     // past the horizon for an overdue waypoint (planner::verify::VerifyParams::
     // read_past_horizon), it flies all 6 in 383 s.
-    let s = generate(Family::Mixed, 147, &ScenarioParams::default());
-    let r = run(&s, StrategyKind::BisectionAuto, &RunConfig::default()).metrics;
-    assert!(r.completed, "{r:?}");
-    assert_eq!(r.waypoints_captured, r.waypoints, "{r:?}");
-    assert_eq!((r.spheres_hit, r.cylinders_hit), (0, 0), "{r:?}");
+    flies_every_waypoint_clear(Family::Mixed, 147);
 }
 
 #[test]
@@ -140,9 +146,5 @@ fn a_waypoint_in_a_slow_spheres_neighbourhood_is_not_put_off_until_the_scenario_
     // aircraft flew 3-4 km detours round it: 2 of 5 waypoints when the scenario ended.
     // The delay credit (planner::verify::VerifyParams::delay_credit_s) runs out after 60 s
     // of putting the waypoint off.
-    let s = generate(Family::Mixed, 21, &ScenarioParams::default());
-    let r = run(&s, StrategyKind::BisectionAuto, &RunConfig::default()).metrics;
-    assert!(r.completed, "{r:?}");
-    assert_eq!(r.waypoints_captured, r.waypoints, "{r:?}");
-    assert_eq!((r.spheres_hit, r.cylinders_hit), (0, 0), "{r:?}");
+    flies_every_waypoint_clear(Family::Mixed, 21);
 }
