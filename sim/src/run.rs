@@ -203,7 +203,7 @@ pub fn run_with_streams(
     let mut last_target = stack.target().map(|t| t.p_m);
     let mut step = 0usize;
     let mut inside = vec![false; scenario.spheres.len()];
-    let mut own_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x0_4E_0153);
+    let mut own_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x004E_0153);
     if cfg.record_track {
         track.push([0.0, ap.state.p_m[0], ap.state.p_m[1], ap.state.p_m[2]]);
     }
