@@ -81,7 +81,7 @@ pub struct VerifyParams {
     /// Without it a route that loops away and reaches the waypoint's crowded neighbourhood
     /// after the horizon read no risk there at all, so every plan looped again and the
     /// aircraft circled until the scenario ended (Webster Field with 10 mixed spheres,
-    /// seed 152: one waypoint pending for 600 s). Default true.
+    /// seed 28: 7 of 14 waypoints, 700 s with one pending; 14 of 14 with it). Default true.
     pub read_past_horizon: bool,
 }
 
@@ -1106,6 +1106,7 @@ mod tests {
             b in proptest::collection::vec((-900.0..900.0f64, -900.0..900.0f64, proptest::bool::ANY), 1..5),
             heading in 0.0..360.0f64,
             danger in proptest::sample::select(vec![0.3, 0.5, 2.0]),
+            spent in proptest::bool::ANY,
         ) {
             let cylinders: Vec<Cylinder> = cyl
                 .iter()
@@ -1132,7 +1133,11 @@ mod tests {
             };
             let (ta, tb) = (tail(&a), tail(&b));
             let s = state(heading);
-            let p = VerifyParams::default();
+            // With the delay credit spent the polyline is read past the horizon too.
+            let p = VerifyParams {
+                delay_credit_s: if spent { 0.0 } else { 60.0 },
+                ..VerifyParams::default()
+            };
             let va = verify_route(&env_at, &s, &ta, 20.0, 40.0, 0.05, &p);
             let vb = verify_route(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p);
             let rival = Rival { best: &va, danger_risk: danger };
@@ -1256,8 +1261,8 @@ mod tests {
         // (800, 800) reaches the ring 2.75 km on, at t = 137 s: after the 60 s horizon,
         // where no risk used to be read, so with the credit spent the loop was clear and
         // the direct route (the ring at t = 22 s, limit 0.11) was not; every replan
-        // looped again (Webster Field with mixed spheres, seed 152: one waypoint pending
-        // for 600 s). Read past the horizon at its last slice, against the limit of the
+        // looped again (Webster Field with mixed spheres, seed 28: 700 s with one waypoint
+        // pending). Read past the horizon at its last slice, against the limit of the
         // progress clock (the ring's entry 524 m from the start in a straight line: 26 s,
         // limit 0.13), the loop meets the ring as the direct route does.
         let wp = StackItem::mission(0, [0.0, 500.0], 100.0);
@@ -1296,6 +1301,15 @@ mod tests {
         // The reported peak and the near window stay within the horizon.
         assert_eq!(now.peak_risk, 0.0);
         assert_eq!(now.near_peak_risk, 0.0);
+        // What is left (README, "Tried and not kept (2026-11-26)"): both unclear, the
+        // loop's graded peak is still a few hundredths lower (its entry farther along a
+        // straight line: a looser limit), so an exact ranking still prefers it.
+        let direct_want = 0.2 * 0.05 / (0.05 + 0.25 * (440.0 / 20.0 - 10.0) / 50.0);
+        assert!(
+            (direct.graded_peak_risk - direct_want).abs() < 0.005,
+            "{direct:?}"
+        );
+        assert!(now.graded_peak_risk < direct.graded_peak_risk);
         // With credit left the waypoint is not overdue: a wait is still credited as before.
         let fresh = check(&Ring, &[], &state(0.0), &lp);
         assert!(fresh.is_clear(0.05), "{fresh:?}");
