@@ -15,6 +15,14 @@ pub fn wrap_pi(a_rad: f64) -> f64 {
     a
 }
 
+/// How much longer the arc of a steady turn through `turn_rad` (a signed turn in
+/// `[-pi, pi]`, e.g. from [`wrap_pi`]) is than its chord: `(x/2) / sin(x/2)`, 1 for no
+/// turn. A ground speed read from two positions' chord is this much short in a turn.
+pub fn arc_over_chord(turn_rad: f64) -> f64 {
+    let half = 0.5 * turn_rad.abs();
+    if half < 1e-9 { 1.0 } else { half / half.sin() }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

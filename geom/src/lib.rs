@@ -22,7 +22,7 @@
 
 /// Angle wrapping.
 pub mod angle;
-pub use angle::wrap_pi;
+pub use angle::{arc_over_chord, wrap_pi};
 
 /// Where a line or a ray meets a circle.
 pub mod circle;

@@ -149,9 +149,7 @@ pub fn shown_bank_rad(samples: &[HeadingSample], params: &ShownTurnParams) -> Op
     let mut speeds: Vec<f64> = spans
         .iter()
         .map(|&(i, j, dt, turn)| {
-            let half = 0.5 * turn.abs();
-            let arc = if half < 1e-9 { 1.0 } else { half / half.sin() };
-            dist(samples[i].p_m, samples[j].p_m) * arc / dt
+            dist(samples[i].p_m, samples[j].p_m) * geom::arc_over_chord(turn) / dt
         })
         .filter(|v| v.is_finite() && *v > 0.0)
         .collect();

@@ -207,11 +207,10 @@ pub(crate) fn with_track_speed(
 fn arc_over_chord(turn_rad: f64) -> f64 {
     let x =
         (turn_rad + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-    let half = x.abs() / 2.0;
-    if half < 1e-9 || half > 75f64.to_radians() {
+    if x.abs() / 2.0 > 75f64.to_radians() {
         1.0
     } else {
-        half / half.sin()
+        geom::arc_over_chord(x)
     }
 }
 
