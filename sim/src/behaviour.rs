@@ -108,6 +108,25 @@ impl Behaviour {
             Self::Spline(_) => BehaviourKind::Spline,
         }
     }
+
+    /// The behaviour flown backward in time: the same path traversed the other way curves
+    /// the other way relative to its heading, so a favoured turn side flips (`Biased`); the
+    /// symmetric behaviours are their own mirror. Used to draw a turning obstacle's flight
+    /// before `t = 0` ([`crate::scenario::Scenario::lead_in`]).
+    pub fn mirrored(&self) -> Self {
+        match self {
+            Self::Biased {
+                mean_rad_s,
+                sigma_rad_s,
+                max_turn_rate_rad_s,
+            } => Self::Biased {
+                mean_rad_s: -mean_rad_s,
+                sigma_rad_s: *sigma_rad_s,
+                max_turn_rate_rad_s: *max_turn_rate_rad_s,
+            },
+            other => other.clone(),
+        }
+    }
 }
 
 /// A ground-truth trajectory sampled every `dt_s` from `t = 0`; positions between samples are

@@ -172,6 +172,49 @@ pub fn with_moving_spheres(
 }
 
 impl Scenario {
+    /// Ground truth of sphere `index` before the run starts: sample `k` is where it was at
+    /// `t = -k * dt_s` (sample 0 is its start), over `lead_in_s` seconds. A spline tour is
+    /// periodic, so its past is its own tour; a turning sphere's past is flown backward from
+    /// its start (reversed heading, mirrored behaviour, the same containment) with its own
+    /// random stream, so the scenario from `t = 0` on is the same with or without a lead-in.
+    /// Used for obstacle telemetry received before take-off
+    /// ([`crate::telemetry::TelemetryParams::lead_in_s`]).
+    ///
+    /// # Panics
+    /// When `index` is not a sphere of the scenario.
+    pub fn lead_in(&self, index: usize, lead_in_s: f64) -> Trajectory {
+        let sp = &self.spheres[index];
+        let dt_s = sp.track.dt_s;
+        let steps = (lead_in_s.max(0.0) / dt_s).ceil() as usize;
+        if let Behaviour::Spline(tour) = &sp.behaviour {
+            let samples_m = (0..=steps)
+                .map(|k| tour.position(-(k as f64) * dt_s))
+                .collect();
+            return Trajectory { dt_s, samples_m };
+        }
+        let p0 = sp.track.samples_m[0];
+        let p1 = sp.track.samples_m.get(1).copied().unwrap_or(p0);
+        let heading_rad = (p1[1] - p0[1]).atan2(p1[0] - p0[0]);
+        let (center_m, radius_m) = containment(&self.mission);
+        let start = TurningStart {
+            p_m: p0,
+            heading_rad: heading_rad + std::f64::consts::PI,
+            speed_mps: sp.speed_mps,
+            contain_center_m: center_m,
+            contain_radius_m: radius_m,
+        };
+        let mut rng = ChaCha8Rng::seed_from_u64(
+            self.seed ^ 0x1EAD_0000_0000 ^ (index as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+        );
+        trajectory(
+            &sp.behaviour.mirrored(),
+            &start,
+            lead_in_s.max(0.0),
+            dt_s,
+            &mut rng,
+        )
+    }
+
     /// The mission flown from `start_m` with no moving sphere yet (and no time limit).
     fn without_spheres(family: Family, seed: u64, mission: Mission, start_m: [f64; 3]) -> Self {
         Self {
@@ -297,6 +340,15 @@ fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> (Mis
     (mission, start_m)
 }
 
+/// The containment circle of the mission's turning spheres: centre and radius (90% of the
+/// larger half-extent of the mission's bounds).
+fn containment(mission: &Mission) -> (P2, f64) {
+    let (lo, hi) = bounds_m(mission);
+    let center = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+    let half = [(hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0];
+    (center, half[0].max(half[1]) * 0.9)
+}
+
 fn random_sphere<R: Rng + ?Sized>(
     mission: &Mission,
     start_m: [f64; 3],
@@ -385,8 +437,8 @@ fn random_sphere<R: Rng + ?Sized>(
         p_m: [p[0], p[1], mission_alt(rng)],
         heading_rad: rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
         speed_mps,
-        contain_center_m: center,
-        contain_radius_m: half[0].max(half[1]) * 0.9,
+        contain_center_m: containment(mission).0,
+        contain_radius_m: containment(mission).1,
     };
     let track = trajectory(&behaviour, &start, duration_s, TRUTH_DT_S, rng);
     MovingSphere {

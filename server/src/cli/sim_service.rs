@@ -217,10 +217,12 @@ impl HttpPlanner {
             }
             self.fed[i] = track.len();
         }
-        if !batch.is_empty() {
+        // A lead-in (telemetry from before take-off) arrives all at once at the first call:
+        // posted in batches a client would send.
+        for chunk in batch.chunks(1000) {
             self.post(
                 &format!("/api/v1/missions/{id}/obstacles"),
-                &json!({ "observations": batch }),
+                &json!({ "observations": chunk }),
             )
             .await?;
         }

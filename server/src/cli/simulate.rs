@@ -111,6 +111,13 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 0.0)]
     pub own_position_noise_m: f64,
 
+    /// Obstacle telemetry received before the aircraft starts, seconds: the spheres are
+    /// watched this long before take-off, as a ground station polling the judges' server
+    /// before the flight would (0 = first seen at take-off, the hardest case). The flight
+    /// from take-off on is the same scenario whatever the lead-in.
+    #[arg(long, default_value_t = 0.0)]
+    pub lead_in_s: f64,
+
     /// Also write the prediction report (stages vs constant velocity per behaviour) over
     /// this many seeds per behaviour (0 = skip).
     #[arg(long, default_value_t = 0)]
@@ -216,6 +223,7 @@ pub fn run(args: SimulateArgs) -> ExitCode {
             50.0,
             "m",
         ),
+        ("--lead-in-s", args.lead_in_s, 0.0, 3600.0, "s"),
     ] {
         if !(v.is_finite() && (lo..=hi).contains(&v)) {
             eprintln!("jink simulate: {flag} must be in [{lo}, {hi}] {unit}");
@@ -241,6 +249,7 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         heading_deg: args.own_heading_noise_deg,
         position_m: args.own_position_noise_m,
     };
+    cfg.run.telemetry.lead_in_s = args.lead_in_s;
     let cfg = cfg;
     let make = |family: Family, seed: u64| -> Scenario {
         match &mission {
