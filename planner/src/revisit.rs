@@ -16,8 +16,12 @@
 //!   current one stays there for as long as the planner rewrites the items after it, so
 //!   without this an aircraft detouring near a waypoint it captured a minute ago would fly
 //!   it again.
-//! - Only once per waypoint: an item whose mission index appears anywhere else in the
-//!   stack is a revisit itself or has one planned, and is not flown again.
+//! - At most [`MAX_PASSES`] passes per waypoint: an item with a revisit already planned
+//!   (its mission index later in the stack) is not flown again, and neither is one whose
+//!   mission index appears [`MAX_PASSES`] times up to it (the first pass and its
+//!   revisits). A revisit planned right beside the waypoint can itself go wide: the
+//!   aircraft loops back round a turn radius and crosses the finish line tens of metres
+//!   off (Webster Field, spline seed 55 with a 15-minute lead-in: 62 m, then 53 m).
 //! - Only on evidence: the track must reach back to when the item became the target
 //!   (within [`TRACK_GAP_S`]), and the closest approach is taken over the track and the
 //!   straight line ahead of its newest point along its newest segment (an aircraft still
@@ -34,6 +38,10 @@ use crate::verify::JUDGE_CAPTURE_M;
 /// The track may start this long after the item became the target, seconds (a sample
 /// period and then some).
 pub const TRACK_GAP_S: f64 = 2.0;
+
+/// Passes at a mission waypoint, the first included: a waypoint passed wide is flown
+/// again at most `MAX_PASSES - 1` times.
+pub const MAX_PASSES: usize = 3;
 
 /// One sample of the aircraft's own track.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,10 +80,11 @@ pub fn missed_waypoint(
     let k = current_index.checked_sub(1)?;
     let item = stack.get(k)?;
     let mission_index = item.mission_index?;
-    let elsewhere = stack.iter().enumerate().any(|(j, i)| {
-        j != k && i.kind == ItemKind::Mission && i.mission_index == Some(mission_index)
-    });
-    if item.kind != ItemKind::Mission || pursued.0 != k || elsewhere {
+    let same =
+        |i: &StackItem| i.kind == ItemKind::Mission && i.mission_index == Some(mission_index);
+    let planned_again = stack[k + 1..].iter().any(same);
+    let passes = stack[..=k].iter().filter(|i| same(i)).count();
+    if item.kind != ItemKind::Mission || pursued.0 != k || planned_again || passes >= MAX_PASSES {
         return None;
     }
     let [first, .., before, last] = track else {
@@ -209,7 +218,7 @@ mod tests {
     }
 
     #[test]
-    fn only_a_mission_waypoint_just_passed_and_only_once() {
+    fn only_a_mission_waypoint_just_passed_and_at_most_three_times() {
         let track = pass(35.0, 60.0);
         // Nothing passed yet.
         assert_eq!(missed_waypoint(&stack(), 0, (0, 0.0), &track), None);
@@ -221,13 +230,19 @@ mod tests {
         assert_eq!(missed_waypoint(&avoid, 1, (0, 0.0), &track), None);
         // Not the item pursued at the last plan: passed before it.
         assert_eq!(missed_waypoint(&stack(), 1, (1, 0.0), &track), None);
-        // Already a revisit (mission index 0 earlier in the stack), or one planned.
+        // A revisit already planned (mission index 0 later in the stack): not again.
         let again = with_revisit(&stack(), 1).expect("an item to revisit");
         assert_eq!(again.len(), 3);
         assert_eq!(again[1], again[0]);
         assert_eq!(again[2], stack()[1]);
-        assert_eq!(missed_waypoint(&again, 2, (1, 0.0), &track), None);
         assert_eq!(missed_waypoint(&again, 1, (0, 0.0), &track), None);
+        // The revisit passed wide too: flown a third time, and no more.
+        let second = missed_waypoint(&again, 2, (1, 0.0), &track).expect("a second revisit");
+        assert_eq!((second.stack_index, second.mission_index), (1, 0));
+        let thrice = with_revisit(&again, 2).expect("a third pass");
+        assert_eq!(thrice.len(), 4);
+        assert_eq!(missed_waypoint(&thrice, 3, (2, 0.0), &track), None);
+        assert_eq!(MAX_PASSES, 3);
         // The index past the end names no item after it, and a revisit of the last item
         // appends it.
         assert!(missed_waypoint(&stack(), 3, (2, 0.0), &track).is_none());

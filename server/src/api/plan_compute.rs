@@ -409,7 +409,7 @@ fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
         w.push(PlanWarning {
             code: "waypoint_revisited".into(),
             message: format!(
-                "mission waypoint {} (stack item {}) was passed {:.1} m away, wider than the judges' 100 ft (30.48 m): the plan flies it again before the rest (once per waypoint; \"revisit_missed\": false turns this off)",
+                "mission waypoint {} (stack item {}) was passed {:.1} m away, wider than the judges' 100 ft (30.48 m): the plan flies it again before the rest (a waypoint is passed three times at most; \"revisit_missed\": false turns this off)",
                 m.mission_index, m.stack_index, m.closest_m
             ),
         });

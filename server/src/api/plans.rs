@@ -257,7 +257,8 @@ pub struct PlanBody {
     /// Fly a missed mission waypoint again (default true): when the aircraft's telemetry
     /// shows it has just gone past the item before `current_index`, a mission waypoint,
     /// farther than the judges' 100 ft (30.48 m), the plan flies that item again before the
-    /// rest (once per waypoint) and warns `waypoint_revisited`. `false`: never.
+    /// rest (a waypoint is passed three times at most) and warns `waypoint_revisited`.
+    /// `false`: never.
     pub revisit_missed: Option<bool>,
 }
 

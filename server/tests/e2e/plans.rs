@@ -18,7 +18,7 @@ both_stores!(
     the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_revision,
     a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows,
     without_a_turn_radius_the_plan_turns_at_the_bank_the_telemetry_has_shown,
-    a_waypoint_passed_wider_than_100_ft_is_flown_again_once,
+    a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice,
 );
 
 /// Time of obstacle "0"'s first observation, Unix seconds.
@@ -893,9 +893,10 @@ async fn fly_past(
 /// waypoint's finish line): the judges count 100 ft, so the next plan flies that waypoint
 /// again (a copy of it is the next mission item, after any turn-back item; warning
 /// `waypoint_revisited` with the distance),
-/// replays identically, and does not fly it a third time. Passed within 100 ft, or with
+/// replays identically; a copy passed wide is flown again too, but a waypoint is passed
+/// three times at most (`planner::revisit::MAX_PASSES`). Passed within 100 ft, or with
 /// `"revisit_missed": false`, the plan goes on.
-async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_once(app: App) {
+async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice(app: App) {
     // A Webster mission, the aircraft 300 m south of waypoint 1 `east_m` east of it, a
     // first plan toward waypoint 1, then the rest of the pass.
     let pass = |east_m: f64| {
@@ -943,23 +944,38 @@ async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_once(app: App) {
     assert_eq!(p2["current_index"], k + 1);
     assert_eq!(p2["diff"]["first_changed"], k + 1, "{}", p2["diff"]);
     assert_replays_identically(&app, &id, &p2).await;
-    // Missed again: not a third time.
-    fly_past(&app, &id, &wp, 40.0, T0 + 30.0, 0..=100).await;
+    let copies = |p: &Value| {
+        p["waypoints"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|w| same_place(w, &wp))
+            .count()
+    };
+    // The copy missed too (the track goes on from the last plan's time, so the evidence
+    // is there): flown a third time.
+    fly_past(&app, &id, &wp, 40.0, T0 + 20.2, 0..=100).await;
     let body = json!({"seed": 3, "base_revision": 2, "current_index": copy + 1});
     let p3 = plan(&app, &id, body).await;
-    assert_eq!(
-        warning(&p3, "waypoint_revisited"),
-        None,
+    assert!(
+        warning(&p3, "waypoint_revisited").is_some(),
         "{}",
         p3["warnings"]
     );
-    let copies = p3["waypoints"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter(|w| same_place(w, &wp))
-        .count();
-    assert_eq!(copies, 2, "{p3}");
+    assert_eq!(copies(&p3), 3, "{p3}");
+    let third = next_mission_item(&p3, copy + 1);
+    assert!(same_place(&p3["waypoints"][third], &wp), "{p3}");
+    // Missed a third time, with the same evidence: not a fourth.
+    fly_past(&app, &id, &wp, 40.0, T0 + 40.4, 0..=100).await;
+    let body = json!({"seed": 4, "base_revision": 3, "current_index": third + 1});
+    let p4 = plan(&app, &id, body).await;
+    assert_eq!(
+        warning(&p4, "waypoint_revisited"),
+        None,
+        "{}",
+        p4["warnings"]
+    );
+    assert_eq!(copies(&p4), 3, "{p4}");
 
     // Within 100 ft (25 m off): captured, nothing to fly again.
     let (id, wp, k) = pass(25.0).await;

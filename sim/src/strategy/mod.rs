@@ -333,19 +333,29 @@ pub fn trace_plans() -> bool {
     *ON.get_or_init(|| std::env::var_os("JINK_SIM_TRACE").is_some())
 }
 
-/// One line of `JINK_SIM_TRACE`: time, position, current index, how long the next fixed
-/// item has been pending, the outcome and the chosen route's verification.
+/// One line of `JINK_SIM_TRACE`: time, position and altitude, current index, the next
+/// fixed item of the plan (position and altitude), how long it has been pending, whether a
+/// missed waypoint is flown again, the outcome and the chosen route's verification.
 fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
     let v = &plan.verification;
+    let next = plan.items[plan.current_index.min(plan.items.len())..]
+        .iter()
+        .find(|i| i.is_fixed())
+        .map(|i| format!("({:.0}, {:.0}, {:.0})", i.p_m[0], i.p_m[1], i.alt_m))
+        .unwrap_or_else(|| "none".into());
     eprintln!(
-        "plan t={:.1} s pos=({:.0}, {:.0}) current_index={} pending_s={:?} outcome={:?} \
+        "plan t={:.1} s pos=({:.0}, {:.0}) alt={:.0} current_index={} next_fixed={} \
+         pending_s={:?} revisit={} outcome={:?} \
          near_peak={:.2} graded_peak={:.2} peak={:.2} exposure_m={:.0} length_m={:.0} \
          added={} conflict={:?}",
         view.t_s,
         r.state.p_m[0],
         r.state.p_m[1],
+        r.state.alt_m,
         plan.current_index,
+        next,
         r.target_pending_s,
+        r.revisit,
         plan.outcome,
         v.near_peak_risk,
         v.graded_peak_risk,
