@@ -433,12 +433,13 @@ fn random_sphere<R: Rng + ?Sized>(
         }
     };
     let p = pick_xy(rng);
+    let (contain_center_m, contain_radius_m) = containment(mission);
     let start = TurningStart {
         p_m: [p[0], p[1], mission_alt(rng)],
         heading_rad: rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
         speed_mps,
-        contain_center_m: containment(mission).0,
-        contain_radius_m: containment(mission).1,
+        contain_center_m,
+        contain_radius_m,
     };
     let track = trajectory(&behaviour, &start, duration_s, TRUTH_DT_S, rng);
     MovingSphere {

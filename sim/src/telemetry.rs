@@ -78,6 +78,15 @@ pub fn sample_streams(
     let n = (scenario.duration_s / dt).floor() as usize;
     let lead = (params.lead_in_s.max(0.0) / dt).floor() as usize;
     let mut lead_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x7E1E_0002);
+    // One sample at `t_s` of true position `p_m`: the dropout drawn first, then the noise
+    // (the same draws whether or not it is lost).
+    let observe = |t_s: f64, mut p_m: [f64; 3], radius_m: f64, rng: &mut ChaCha8Rng| {
+        let lost = rng.random::<f64>() < params.dropout_prob;
+        for c in &mut p_m {
+            *c += noise.sample(rng);
+        }
+        (!lost).then_some(ObstacleObservation { t_s, p_m, radius_m })
+    };
     scenario
         .spheres
         .iter()
@@ -86,36 +95,15 @@ pub fn sample_streams(
             let mut out = Vec::with_capacity(lead + n + 1);
             if lead > 0 {
                 let past = scenario.lead_in(index, lead as f64 * dt);
-                for k in (1..=lead).rev() {
-                    let lost = lead_rng.random::<f64>() < params.dropout_prob;
-                    let mut p_m = past.at(k as f64 * dt);
-                    for c in &mut p_m {
-                        *c += noise.sample(&mut lead_rng);
-                    }
-                    if !lost {
-                        out.push(ObstacleObservation {
-                            t_s: -(k as f64) * dt,
-                            p_m,
-                            radius_m: s.radius_m,
-                        });
-                    }
-                }
+                out.extend((1..=lead).rev().filter_map(|k| {
+                    let ago = k as f64 * dt;
+                    observe(-ago, past.at(ago), s.radius_m, &mut lead_rng)
+                }));
             }
-            for i in 0..=n {
+            out.extend((0..=n).filter_map(|i| {
                 let t_s = i as f64 * dt;
-                let lost = rng.random::<f64>() < params.dropout_prob;
-                let mut p_m = s.track.at(t_s);
-                for c in &mut p_m {
-                    *c += noise.sample(&mut rng);
-                }
-                if !lost {
-                    out.push(ObstacleObservation {
-                        t_s,
-                        p_m,
-                        radius_m: s.radius_m,
-                    });
-                }
-            }
+                observe(t_s, s.track.at(t_s), s.radius_m, &mut rng)
+            }));
             out
         })
         .collect()
