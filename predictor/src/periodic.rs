@@ -18,6 +18,25 @@
 //! with `s` ([`Lap::sigma_m`]). The search is a pure function of the track and its newest
 //! time, so a predictor fed batch by batch and one rebuilt from the same rows agree.
 //!
+//! Mirrored laps ([`LapKind::Mirror`]): a tour through two waypoints is the same periodic
+//! spline between two points, an out-and-back on a line, slowing to a stop at each end and
+//! symmetric in time about it, so after a turn-back the obstacle retraces what it flew
+//! before the turn-back, backward. A whole lap of such a tour takes until it is back where
+//! it was first seen (twice the leg); the mirror is recognized as soon as the signature has
+//! flown [`PeriodicConfig::window_s`] past the turn-back: when no lap matches, the signature
+//! is compared with every earlier stretch flown forward from its start (`P(t0 - L + j)`
+//! against `P(t0 - j)`), and the prediction `s` seconds ahead is the track at `t0 - L - s`,
+//! until that runs off the start of the track (the prediction is then the obstacle's own
+//! model, manoeuvre replay when it has the history). A mirror needs the signature to match
+//! within [`MIRROR_MAX_RMS`] (tighter than a lap) and to span at least [`MIRROR_MIN_CHORD`]
+//! times [`PeriodicConfig::max_rms_m`] end to end, so a slow or hovering obstacle, which
+//! matches itself backward trivially, is not taken for one; and the whole flight since the
+//! turn-back, not only the signature, must retrace the flight before it, on a straight
+//! line, within [`MIRROR_MAX_RMS`] (an obstacle that turns round in a loop or a zigzag and
+//! flies back near its own path for a while does not, at the turn). A hairpin of a longer
+//! tour can pass all of this near its tip and leave its own path further on, so a mirror's
+//! spread grows faster than a lap's ([`MIRROR_SPREAD_MPS`]).
+//!
 //! # Units
 //! ENU metres, seconds.
 
@@ -52,33 +71,76 @@ impl Default for PeriodicConfig {
     }
 }
 
+/// The signature's span, end to end, that a mirrored lap needs, in units of
+/// [`PeriodicConfig::max_rms_m`] (18 m over the default 10 s window: 1.8 m/s on average).
+pub const MIRROR_MIN_CHORD: f64 = 3.0;
+
+/// The RMS distance the whole flight since a mirror's turn-back may have from the flight
+/// before it, and the flight around the turn-back from one straight line, in units of
+/// [`PeriodicConfig::max_rms_m`] (3 m by default; 1 m of noise per axis on both positions
+/// makes about 2 m between them).
+pub const MIRROR_MAX_RMS: f64 = 0.5;
+
+/// How fast a mirror's spread grows, m/s per axis. A hairpin of a tour through more than
+/// two waypoints can retrace itself on a line near its tip, within every test above, and
+/// then leave its own path: in `sim/tests/mirror.rs` (20 Webster Field scenarios) such
+/// mirrors were 18 of 3239 mirrored seconds and 6-20 m off 10 s ahead, where true
+/// out-and-backs were 1 m off at the median. At 0.5 m/s the 95% disc (2.45 sigma) has a
+/// 20-25 m radius at +10 s, still a sixth of manoeuvre replay's; at 0.05 m/s, a lap's rate,
+/// 16 of the 36 hairpin predictions there fell outside it.
+pub const MIRROR_SPREAD_MPS: f64 = 0.5;
+
+/// How a lap maps the future onto the observed track.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub enum LapKind {
+    /// The tour repeats: the position at `t + period` is the position at `t`.
+    #[default]
+    Repeat,
+    /// The tour retraces itself backward after a turn-back (see the module docs): the
+    /// position at `t0 + s` is the position at `t0 - period - s`.
+    Mirror,
+}
+
 /// A recognized lap.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Lap {
-    /// The period, seconds.
+    /// The period, seconds (for a mirror, the time between the newest observation and the
+    /// earlier time at the same place: twice the time since the turn-back).
     pub period_s: f64,
     /// RMS distance between the signature and the earlier lap, metres.
     pub rms_m: f64,
     /// The newest observation time the lap was found at, seconds.
     pub t0_s: f64,
+    /// Repeated or mirrored.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub kind: LapKind,
 }
 
 impl Lap {
-    /// The time on the observed track whose position predicts `t_s` (at most `t0_s`).
+    /// The time on the observed track whose position predicts `t_s` (at most `t0_s`; for a
+    /// mirror it may precede the track's first observation, which then predicts nothing).
     pub fn source_time(&self, t_s: f64) -> f64 {
         let s = t_s - self.t0_s;
         if s <= 0.0 {
             return t_s;
         }
-        let k = (s / self.period_s).ceil();
-        t_s - k * self.period_s
+        match self.kind {
+            LapKind::Repeat => t_s - (s / self.period_s).ceil() * self.period_s,
+            LapKind::Mirror => self.t0_s - self.period_s - s,
+        }
     }
 
     /// One-sigma position spread (per axis) `s` seconds ahead, metres: the match's RMS
-    /// plus 1 m, growing by 5 cm per second ahead.
+    /// plus 1 m, growing by 5 cm per second ahead for a repeat and by
+    /// [`MIRROR_SPREAD_MPS`] for a mirror.
     pub fn sigma_m(&self, s: f64) -> f64 {
-        self.rms_m + 1.0 + 0.05 * s.max(0.0)
+        let grow = match self.kind {
+            LapKind::Repeat => 0.05,
+            LapKind::Mirror => MIRROR_SPREAD_MPS,
+        };
+        self.rms_m + 1.0 + grow * s.max(0.0)
     }
 
     /// One-sigma timing jitter `s` seconds ahead, seconds (the period is known to about
@@ -94,49 +156,137 @@ impl Lap {
     }
 }
 
-fn rms(track: &Track, sig: &[[f64; 2]], lag: f64, t0: f64, cfg: &PeriodicConfig) -> Option<f64> {
+/// RMS distance between the signature (`sig[j]` at `t0 - j step`) and the stretch at lag
+/// `lag`: flown the same way (`t0 - lag - j step`) for a repeat, backward from its start
+/// (`t0 - lag + j step`) for a mirror.
+fn rms(
+    track: &Track,
+    sig: &[[f64; 2]],
+    lag: f64,
+    t0: f64,
+    cfg: &PeriodicConfig,
+    kind: LapKind,
+) -> Option<f64> {
+    let dir = match kind {
+        LapKind::Repeat => -1.0,
+        LapKind::Mirror => 1.0,
+    };
     let mut sum = 0.0;
     for (j, q) in sig.iter().enumerate() {
-        let p = track.position_at(t0 - lag - j as f64 * cfg.step_s, cfg.max_gap_s)?;
+        let p = track.position_at(t0 - lag + dir * j as f64 * cfg.step_s, cfg.max_gap_s)?;
         let d = dist(p, *q);
         sum += d * d;
     }
     Some((sum / sig.len() as f64).sqrt())
 }
 
-/// Searches `track` for a lap ending at its newest observation (see the module docs).
+/// Whether the flight around a mirror's turn-back (`t0 - lag / 2`) is an out-and-back on a
+/// line: positions the same time before and after the turn-back, at every step from it to
+/// the newest observation, within [`MIRROR_MAX_RMS`] RMS of each other (the signature alone
+/// checks only the newest [`PeriodicConfig::window_s`]: an obstacle that turns round in a
+/// loop or a zigzag and then flies back near its own path for a while fails here, at the
+/// turn), and all of them within the same RMS of one straight line (a two-waypoint tour is
+/// a line; a narrow loop through three waypoints retraces itself only roughly and drifts
+/// apart from its own path further on).
+fn out_and_back_on_a_line(track: &Track, t0: f64, lag: f64, cfg: &PeriodicConfig) -> bool {
+    let (tm, half) = (t0 - 0.5 * lag, 0.5 * lag);
+    let n = (half / cfg.step_s).floor() as usize;
+    let limit = MIRROR_MAX_RMS * cfg.max_rms_m;
+    let mut pts = Vec::with_capacity(2 * n + 2);
+    let mut sum = 0.0;
+    for k in 0..=n {
+        let d = k as f64 * cfg.step_s;
+        let (Some(a), Some(b)) = (
+            track.position_at(tm - d, cfg.max_gap_s),
+            track.position_at(tm + d, cfg.max_gap_s),
+        ) else {
+            return false;
+        };
+        sum += dist(a, b).powi(2);
+        pts.extend([a, b]);
+    }
+    if (sum / (n + 1) as f64).sqrt() > limit {
+        return false;
+    }
+    // The spread across the principal axis: the smaller eigenvalue of the covariance.
+    let m = pts.len() as f64;
+    let c = pts
+        .iter()
+        .fold([0.0; 2], |c, p| [c[0] + p[0] / m, c[1] + p[1] / m]);
+    let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+    for p in &pts {
+        let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+        sxx += dx * dx / m;
+        syy += dy * dy / m;
+        sxy += dx * dy / m;
+    }
+    let across = 0.5 * (sxx + syy) - (0.25 * (sxx - syy).powi(2) + sxy * sxy).sqrt();
+    across.max(0.0).sqrt() <= limit
+}
+
+/// Searches `track` for a lap ending at its newest observation (see the module docs): a
+/// repeat if one matches, else a mirror.
 pub fn find_lap(track: &Track, cfg: &PeriodicConfig) -> Option<Lap> {
     let obs = track.observations();
     let (first, last) = (obs.first()?.t_s, obs.last()?.t_s);
     let t0 = last;
     let n_sig = (cfg.window_s / cfg.step_s).floor() as usize + 1;
     let span_sig = (n_sig - 1) as f64 * cfg.step_s;
-    if t0 - first < cfg.min_period_s + span_sig {
+    // The shortest mirror: the matched stretch ends where the signature starts.
+    let min_mirror_s = 2.0 * span_sig;
+    if t0 - first < (cfg.min_period_s + span_sig).min(min_mirror_s) {
         return None;
     }
     let sig: Vec<[f64; 2]> = (0..n_sig)
         .map(|j| track.position_at(t0 - j as f64 * cfg.step_s, cfg.max_gap_s))
         .collect::<Option<_>>()?;
-    // Candidate lags: observations near the newest position, old enough, in runs; the best
-    // of each run (closest to the newest position) is scored on the whole signature.
-    let latest = t0 - cfg.min_period_s;
-    let earliest = first + span_sig;
+    let found = |kind, min_lag, max_lag| {
+        search(track, &sig, t0, cfg, kind, min_lag, max_lag).map(|(period_s, rms_m)| Lap {
+            period_s,
+            rms_m,
+            t0_s: t0,
+            kind,
+        })
+    };
+    found(LapKind::Repeat, cfg.min_period_s, t0 - first - span_sig).or_else(|| {
+        (dist(sig[0], sig[n_sig - 1]) >= MIRROR_MIN_CHORD * cfg.max_rms_m)
+            .then(|| found(LapKind::Mirror, min_mirror_s, t0 - first))
+            .flatten()
+    })
+}
+
+/// The smallest lag in `[min_lag, max_lag]` whose stretch matches the signature `sig` within
+/// [`PeriodicConfig::max_rms_m`], with its RMS distance. Candidates are the observations
+/// near the newest position, in runs; the best of each run (closest to the newest position)
+/// is refined to a tenth of the step and scored on the whole signature; newest first, so
+/// the first run that matches is the most recent lap.
+fn search(
+    track: &Track,
+    sig: &[[f64; 2]],
+    t0: f64,
+    cfg: &PeriodicConfig,
+    kind: LapKind,
+    min_lag: f64,
+    max_lag: f64,
+) -> Option<(f64, f64)> {
+    if max_lag < min_lag {
+        return None;
+    }
     let mut best: Option<(f64, f64)> = None;
     let mut run: Option<(f64, f64)> = None;
     let flush = |run: &mut Option<(f64, f64)>, best: &mut Option<(f64, f64)>| {
         if let Some((_, tau)) = run.take()
             && best.is_none()
         {
-            // Refine the lag around the observation to a tenth of the step.
             let mut lag = t0 - tau;
-            let mut e = rms(track, &sig, lag, t0, cfg).unwrap_or(f64::INFINITY);
+            let mut e = rms(track, sig, lag, t0, cfg, kind).unwrap_or(f64::INFINITY);
             let mut h = cfg.step_s * 0.5;
             while h >= cfg.step_s * 0.05 {
                 for cand in [lag - h, lag + h] {
-                    if cand < cfg.min_period_s || t0 - cand < earliest {
+                    if cand < min_lag || cand > max_lag {
                         continue;
                     }
-                    if let Some(ec) = rms(track, &sig, cand, t0, cfg)
+                    if let Some(ec) = rms(track, sig, cand, t0, cfg, kind)
                         && ec < e
                     {
                         (lag, e) = (cand, ec);
@@ -144,17 +294,23 @@ pub fn find_lap(track: &Track, cfg: &PeriodicConfig) -> Option<Lap> {
                 }
                 h *= 0.5;
             }
-            if e <= cfg.max_rms_m {
+            let ok = match kind {
+                LapKind::Repeat => e <= cfg.max_rms_m,
+                LapKind::Mirror => {
+                    e <= MIRROR_MAX_RMS * cfg.max_rms_m
+                        && out_and_back_on_a_line(track, t0, lag, cfg)
+                }
+            };
+            if ok {
                 *best = Some((lag, e));
             }
         }
     };
-    // Newest first: the first run that matches is the most recent lap.
-    for o in obs.iter().rev() {
-        if o.t_s > latest {
+    for o in track.observations().iter().rev() {
+        if o.t_s > t0 - min_lag {
             continue;
         }
-        if o.t_s < earliest {
+        if o.t_s < t0 - max_lag {
             break;
         }
         let d = dist(o.p_m, sig[0]);
@@ -171,11 +327,7 @@ pub fn find_lap(track: &Track, cfg: &PeriodicConfig) -> Option<Lap> {
         }
     }
     flush(&mut run, &mut best);
-    best.map(|(period_s, rms_m)| Lap {
-        period_s,
-        rms_m,
-        t0_s: t0,
-    })
+    best
 }
 
 #[cfg(test)]
@@ -218,6 +370,60 @@ mod tests {
         let p = lap.position(&t, 30.0, 5.0).unwrap();
         let truth = [200.0 * (w * 330.0).cos(), 200.0 * (w * 330.0).sin()];
         assert!(dist(p, truth) < 1.0, "{p:?} {truth:?}");
+    }
+
+    /// An out-and-back on a line (a two-waypoint tour): 300 m either side of the origin
+    /// every 120 s, turning back at t = 40 s (and at 100 s, 160 s, ...).
+    fn out_and_back(s: f64) -> [f64; 2] {
+        let x = 300.0 * (2.0 * std::f64::consts::PI * (s - 10.0) / 120.0).sin();
+        [x * 0.8, x * 0.6]
+    }
+
+    #[test]
+    fn an_out_and_back_is_a_mirror_after_its_turn_back_then_a_repeat_after_a_whole_lap() {
+        let cfg = PeriodicConfig::default();
+        // 25 s after the turn-back: the last 10 s retrace the stretch 15-25 s before it.
+        let t = track(out_and_back, 65.0, 5.0);
+        let lap = find_lap(&t, &cfg).expect("a mirror");
+        assert_eq!(lap.kind, LapKind::Mirror, "{lap:?}");
+        assert!((lap.period_s - 50.0).abs() < 0.2, "{lap:?}");
+        assert!(lap.rms_m < 1.0, "{lap:?}");
+        // Ahead up to the track's start (15 s here), the track read backward.
+        for s in [1.0, 5.0, 10.0, 14.5] {
+            let p = lap.position(&t, s, 5.0).unwrap();
+            let truth = out_and_back(65.0 + s);
+            assert!(dist(p, truth) < 1.0, "+{s} s: {p:?} {truth:?}");
+        }
+        // Past it, nothing: the obstacle's own model predicts there.
+        assert_eq!(lap.position(&t, 16.0, 5.0), None);
+        // Within the window after the turn-back, no mirror yet (nor anything else).
+        assert_eq!(find_lap(&track(out_and_back, 48.0, 5.0), &cfg), None);
+        // Once a whole lap is seen, the repeat wins.
+        let t = track(out_and_back, 140.0, 5.0);
+        let lap = find_lap(&t, &cfg).expect("a lap");
+        assert_eq!(lap.kind, LapKind::Repeat, "{lap:?}");
+        assert!((lap.period_s - 120.0).abs() < 0.2, "{lap:?}");
+    }
+
+    #[test]
+    fn a_slow_out_and_back_is_not_a_mirror() {
+        // 30 m either side every 120 s (at most 1.6 m/s): no lap matches, and the mirror,
+        // which would match exactly, is refused because the signature spans 13 m (< 18).
+        let slow = |s: f64| {
+            let [x, y] = out_and_back(s);
+            [x / 10.0, y / 10.0]
+        };
+        assert_eq!(
+            find_lap(&track(slow, 65.0, 5.0), &PeriodicConfig::default()),
+            None
+        );
+        // The same at 50 m either side (26 m spanned) is a mirror.
+        let faster = |s: f64| {
+            let [x, y] = out_and_back(s);
+            [x / 6.0, y / 6.0]
+        };
+        let lap = find_lap(&track(faster, 65.0, 5.0), &PeriodicConfig::default());
+        assert_eq!(lap.map(|l| l.kind), Some(LapKind::Mirror), "{lap:?}");
     }
 
     #[test]

@@ -23,7 +23,7 @@
 use crate::estimate::{self, Estimates, EstimatorConfig, TurnSampler, TurnSummary};
 use crate::field::RiskField;
 use crate::motion::{MotionModel, ReplayModel};
-use crate::periodic::{Lap, PeriodicConfig, find_lap};
+use crate::periodic::{Lap, LapKind, PeriodicConfig, find_lap};
 use crate::replay::{Manoeuvres, ReplayConfig};
 use crate::risk_map::{ObstacleInput, RiskMap, RiskMapConfig};
 use crate::stage::{Characterizer, Stage, StageChange, StageConfig, TurnHistogram};
@@ -250,16 +250,10 @@ impl Predictor {
         rng: &mut R,
     ) -> Option<Vec<[f64; 2]>> {
         let ob = self.obstacles.get(id)?;
-        if let Some(lap) = ob.model.lap {
-            return Some(sample_lap(
-                &lap,
-                &ob.track,
-                dt_s,
-                n,
-                rng,
-                &ob.model,
-                self.periodic_gap_s(),
-            ));
+        if let Some(lap) = ob.model.lap
+            && let Some(v) = sample_lap(&lap, &ob.track, dt_s, n, rng, self.periodic_gap_s())
+        {
+            return Some(v);
         }
         Some(
             ob.model
@@ -378,33 +372,33 @@ impl Predictor {
 }
 
 /// `n` positions `dt_s` after the newest observation replayed from `lap`, spread as
-/// [`Lap::sigma_m`] and [`Lap::jitter_s`] say (the model's own propagation where the track
-/// has a gap).
+/// [`Lap::sigma_m`] and [`Lap::jitter_s`] say; `None` where the track has a gap or a
+/// mirror has run off its start (the caller then uses the obstacle's own model).
 fn sample_lap<R: Rng + ?Sized>(
     lap: &Lap,
     track: &Track,
     dt_s: f64,
     n: usize,
     rng: &mut R,
-    model: &MotionModel,
     max_gap_s: f64,
-) -> Vec<[f64; 2]> {
-    let Some(base) = lap.position(track, dt_s, max_gap_s) else {
-        return model.sample_future(dt_s, n, rng);
-    };
+) -> Option<Vec<[f64; 2]>> {
+    let base = lap.position(track, dt_s, max_gap_s)?;
     let ahead = lap.position(track, dt_s + 0.5, max_gap_s).unwrap_or(base);
     let behind = lap.position(track, dt_s - 0.5, max_gap_s).unwrap_or(base);
     let vel = [ahead[0] - behind[0], ahead[1] - behind[1]];
     let (sig, jit) = (lap.sigma_m(dt_s), lap.jitter_s(dt_s));
-    (0..n)
-        .map(|_| {
-            let [zt, zx, zy]: [f64; 3] = std::array::from_fn(|_| StandardNormal.sample(&mut *rng));
-            [
-                base[0] + vel[0] * zt * jit + zx * sig,
-                base[1] + vel[1] * zt * jit + zy * sig,
-            ]
-        })
-        .collect()
+    Some(
+        (0..n)
+            .map(|_| {
+                let [zt, zx, zy]: [f64; 3] =
+                    std::array::from_fn(|_| StandardNormal.sample(&mut *rng));
+                [
+                    base[0] + vel[0] * zt * jit + zx * sig,
+                    base[1] + vel[1] * zt * jit + zy * sig,
+                ]
+            })
+            .collect(),
+    )
 }
 
 fn input<'a>(id: &'a str, o: &'a Obstacle) -> ObstacleInput<'a> {
@@ -482,7 +476,8 @@ fn refresh(ob: &mut Obstacle, cfg: &PredictorConfig, samples_changed: bool) {
     );
     if cfg.forced_stage.is_none() && stage != Stage::NoFly {
         ob.model.lap = cfg.periodic.and_then(|pc| find_lap(&ob.track, &pc));
-        if ob.model.lap.is_none()
+        // A mirror runs out where the track starts: replay predicts past it.
+        if ob.model.lap.is_none_or(|l| l.kind == LapKind::Mirror)
             && ob.model.speed_mps > 0.0
             && let Some(rc) = cfg.replay
             && ob.manoeuvres.ready(&ob.track, &rc)
