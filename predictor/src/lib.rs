@@ -28,7 +28,7 @@ pub mod track;
 pub use estimate::{Estimates, EstimatorConfig};
 pub use field::{NoRisk, RiskField};
 pub use motion::{MotionModel, ReplayModel};
-pub use periodic::{Lap, LapKind, PeriodicConfig};
+pub use periodic::{Lap, LapKind, LapPoint, PeriodicConfig};
 pub use predictor::{
     ConstantVelocityField, ObstacleSummary, Predictor, PredictorConfig,
     RULES_MAX_OBSTACLE_SPEED_MPS,

@@ -154,6 +154,48 @@ impl Lap {
     pub fn position(&self, track: &Track, s: f64, max_gap_s: f64) -> Option<[f64; 2]> {
         track.position_at(self.source_time(self.t0_s + s), max_gap_s)
     }
+
+    /// What a prediction `s` seconds after `t0_s` spreads from: the lap's position there,
+    /// its velocity (the positions half a second either side, the base itself where one of
+    /// them falls in a gap), and the spread and timing jitter at `s`; `None` where the base
+    /// falls in a gap of more than `max_gap_s` or a mirror has run off the track's start.
+    /// The predictor's samples and the risk map's particles are both drawn from it.
+    pub fn at(&self, track: &Track, s: f64, max_gap_s: f64) -> Option<LapPoint> {
+        let base = self.position(track, s, max_gap_s)?;
+        let ahead = self.position(track, s + 0.5, max_gap_s).unwrap_or(base);
+        let behind = self.position(track, s - 0.5, max_gap_s).unwrap_or(base);
+        Some(LapPoint {
+            base,
+            velocity: [ahead[0] - behind[0], ahead[1] - behind[1]],
+            sigma_m: self.sigma_m(s),
+            jitter_s: self.jitter_s(s),
+        })
+    }
+}
+
+/// A lap's prediction at one time ahead, before spreading ([`Lap::at`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LapPoint {
+    /// The position the lap predicts, metres ENU.
+    pub base: [f64; 2],
+    /// The lap's velocity there, m/s.
+    pub velocity: [f64; 2],
+    /// One-sigma position spread per axis, metres ([`Lap::sigma_m`]).
+    pub sigma_m: f64,
+    /// One-sigma timing jitter, seconds ([`Lap::jitter_s`]).
+    pub jitter_s: f64,
+}
+
+impl LapPoint {
+    /// One spread position from three standard normal deviates: `z[0]` shifts it along the
+    /// velocity by the timing jitter, `z[1]` and `z[2]` across each axis by the spread.
+    pub fn particle(&self, z: [f64; 3]) -> [f64; 2] {
+        let (v, jit, sig) = (self.velocity, self.jitter_s, self.sigma_m);
+        [
+            self.base[0] + v[0] * z[0] * jit + z[1] * sig,
+            self.base[1] + v[1] * z[0] * jit + z[2] * sig,
+        ]
+    }
 }
 
 /// RMS distance between the signature (`sig[j]` at `t0 - j step`) and the stretch at lag
@@ -403,6 +445,31 @@ mod tests {
         let lap = find_lap(&t, &cfg).expect("a lap");
         assert_eq!(lap.kind, LapKind::Repeat, "{lap:?}");
         assert!((lap.period_s - 120.0).abs() < 0.2, "{lap:?}");
+    }
+
+    #[test]
+    fn a_mirrors_point_ahead_moves_the_way_the_obstacle_will_and_spreads_by_its_jitter() {
+        // The mirror reads the track backward, so the velocity it gives must still be the
+        // obstacle's own ahead (not the reversed one of the stretch it reads).
+        let t = track(out_and_back, 65.0, 5.0);
+        let lap = find_lap(&t, &PeriodicConfig::default()).expect("a mirror");
+        assert_eq!(lap.kind, LapKind::Mirror);
+        let s = 5.0;
+        let at = lap.at(&t, s, 5.0).expect("within the track");
+        let (a, b) = (out_and_back(65.0 + s + 0.5), out_and_back(65.0 + s - 0.5));
+        let truth = [a[0] - b[0], a[1] - b[1]];
+        assert!(dist(at.velocity, truth) < 0.3, "{:?} {truth:?}", at.velocity);
+        assert_eq!((at.sigma_m, at.jitter_s), (lap.sigma_m(s), lap.jitter_s(s)));
+        // No deviate: the base; one sigma of timing: a jitter's worth of flight along it.
+        assert_eq!(at.particle([0.0; 3]), at.base);
+        let p = at.particle([1.0, 0.0, 0.0]);
+        let along = [p[0] - at.base[0], p[1] - at.base[1]];
+        let want = [at.velocity[0] * at.jitter_s, at.velocity[1] * at.jitter_s];
+        assert!(dist(along, want) < 1e-9, "{along:?} {want:?}");
+        let p = at.particle([0.0, 2.0, -1.0]);
+        assert!(dist(p, [at.base[0] + 2.0 * at.sigma_m, at.base[1] - at.sigma_m]) < 1e-9);
+        // Past the track's start nothing, as for the position.
+        assert_eq!(lap.at(&t, 16.0, 5.0), None);
     }
 
     #[test]

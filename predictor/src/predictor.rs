@@ -382,21 +382,10 @@ fn sample_lap<R: Rng + ?Sized>(
     rng: &mut R,
     max_gap_s: f64,
 ) -> Option<Vec<[f64; 2]>> {
-    let base = lap.position(track, dt_s, max_gap_s)?;
-    let ahead = lap.position(track, dt_s + 0.5, max_gap_s).unwrap_or(base);
-    let behind = lap.position(track, dt_s - 0.5, max_gap_s).unwrap_or(base);
-    let vel = [ahead[0] - behind[0], ahead[1] - behind[1]];
-    let (sig, jit) = (lap.sigma_m(dt_s), lap.jitter_s(dt_s));
+    let at = lap.at(track, dt_s, max_gap_s)?;
     Some(
         (0..n)
-            .map(|_| {
-                let [zt, zx, zy]: [f64; 3] =
-                    std::array::from_fn(|_| StandardNormal.sample(&mut *rng));
-                [
-                    base[0] + vel[0] * zt * jit + zx * sig,
-                    base[1] + vel[1] * zt * jit + zy * sig,
-                ]
-            })
+            .map(|_| at.particle(std::array::from_fn(|_| StandardNormal.sample(&mut *rng))))
             .collect(),
     )
 }

@@ -19,10 +19,8 @@ fn webster() -> (Mission, [f64; 3]) {
     ))
     .expect("fixture");
     let m = wire::domain::read_mission_text(&text, "webster").expect("a valid mission");
-    let start = m.frame().to_enu(m.home.lat, m.home.lon);
-    let pm = m.to_planner();
-    let alt = pm.waypoints[0].alt_m;
-    (pm, [start[0], start[1], alt])
+    // Where `jink simulate --mission` starts.
+    (m.to_planner(), m.home_start().expect("waypoints"))
 }
 
 /// Per sphere kind (out-and-back or not): seconds with a mirror, and the errors of the

@@ -83,6 +83,16 @@ impl Mission {
     pub fn to_planner(&self) -> planner::Mission {
         self.content.to_planner(&self.frame())
     }
+
+    /// Where a simulated flight of the mission takes off, in the planner's ENU terms: the
+    /// home position (the frame's origin) at the first waypoint's altitude; `None` for a
+    /// mission without waypoints. `jink simulate --mission` and the simulator's tests
+    /// start here.
+    pub fn home_start(&self) -> Option<[f64; 3]> {
+        let alt = self.content.waypoints.first()?.alt_msl_m;
+        let [e, n] = self.frame().to_enu(self.home.lat, self.home.lon);
+        Some([e, n, alt])
+    }
 }
 
 impl MissionInput {
@@ -148,9 +158,16 @@ mod tests {
         // 100-750 ft band, exactly converted.
         assert!((pm.fly_zones[0].alt_min_m - 30.48).abs() < 1e-9);
         assert!((pm.fly_zones[0].alt_max_m - 228.6).abs() < 1e-9);
-        // The home (lost-comms position) is the frame's origin.
+        // The home (lost-comms position) is the frame's origin, and a simulated flight
+        // takes off there at the first waypoint's altitude.
         let [e, n] = m.frame().to_enu(m.home.lat, m.home.lon);
         assert!(e.abs() < 1e-9 && n.abs() < 1e-9);
+        let [se, sn, salt] = m.home_start().expect("waypoints");
+        assert!(se.abs() < 1e-9 && sn.abs() < 1e-9, "{se} {sn}");
+        assert_eq!(salt, pm.waypoints[0].alt_m);
+        let mut none = m.clone();
+        none.content.waypoints.clear();
+        assert_eq!(none.home_start(), None);
         // Every converted waypoint maps back to its latitude/longitude.
         for (w, pw) in m.content.waypoints.iter().zip(&pm.waypoints) {
             let (lat, lon) = m.frame().to_geodetic(pw.p_m);

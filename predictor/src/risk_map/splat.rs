@@ -72,27 +72,13 @@ impl RiskMap {
                 self.add_particle(p, all);
             } else if o.model.speed_mps <= 0.0 {
                 self.add_particle(o.model.position_m, all);
-            } else if let Some(replay) = o.model.lap.and_then(|lap| {
-                let s = tk - o.model.t_s;
-                let base = lap.position(o.track, s, LAP_MAX_GAP_S)?;
-                let ahead = lap
-                    .position(o.track, s + 0.5, LAP_MAX_GAP_S)
-                    .unwrap_or(base);
-                let behind = lap
-                    .position(o.track, s - 0.5, LAP_MAX_GAP_S)
-                    .unwrap_or(base);
-                Some((base, [ahead[0] - behind[0], ahead[1] - behind[1]], lap, s))
-            }) {
-                let (base, vel, lap, s) = replay;
-                let (sig, jit) = (lap.sigma_m(s), lap.jitter_s(s));
+            } else if let Some(at) = o
+                .model
+                .lap
+                .and_then(|lap| lap.at(o.track, tk - o.model.t_s, LAP_MAX_GAP_S))
+            {
                 for z in &lap_z {
-                    self.add_particle(
-                        [
-                            base[0] + vel[0] * z[0] * jit + z[1] * sig,
-                            base[1] + vel[1] * z[0] * jit + z[2] * sig,
-                        ],
-                        1,
-                    );
+                    self.add_particle(at.particle(*z), 1);
                 }
             } else {
                 prop.advance_to(tk, &mut rng);

@@ -134,11 +134,10 @@ pub fn load_mission(path: &Path) -> Result<(sim::mission::Mission, [f64; 3]), St
         .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     let m = wire::domain::read_mission_text(&text, "simulate")
         .map_err(|e| format!("{}: {e}", path.display()))?;
-    let home = m.home;
-    let pm = m.to_planner();
-    let start = m.frame().to_enu(home.lat, home.lon);
-    let alt = pm.waypoints[0].alt_m;
-    Ok((pm, [start[0], start[1], alt]))
+    let start = m
+        .home_start()
+        .ok_or_else(|| format!("{}: the mission has no waypoints to fly", path.display()))?;
+    Ok((m.to_planner(), start))
 }
 
 /// Runs the subcommand.
