@@ -33,7 +33,7 @@ use predictor::{NoRisk, ObstacleSummary, Predictor, RiskField, RiskMap, RiskMapC
 
 use crate::mission::{Aircraft, Mission};
 use crate::plan::{AircraftState, Plan, PlanError, PlanParams, PlanRequest, Strategy, plan_until};
-use crate::revisit::with_revisit;
+use crate::revisit::{with_captured_skipped, with_revisit};
 use crate::stack::{StackItem, diff, mission_stack};
 use crate::termination::Termination;
 
@@ -181,6 +181,12 @@ pub struct Replan<'a> {
     /// caller found it missed ([`crate::revisit::missed_waypoint`]). The plan's stack then
     /// holds a copy of it at `current_index`, and its diff is against `stack` as given.
     pub revisit: bool,
+    /// Skip the next fixed item of the stack and the avoid items before it: the caller
+    /// found the aircraft captured it on the way ([`crate::revisit::captured_on_the_way`]).
+    /// The plan's stack goes on from the item after it, and its diff is against `stack` as
+    /// given. Ignored with `revisit` (a copy of the item just passed is then the next fixed
+    /// item).
+    pub captured: bool,
 }
 
 /// A plan and the dynamic risk it saw.
@@ -301,10 +307,16 @@ pub fn replan(
     } else {
         r.stack
     };
-    let revisited = r
-        .revisit
-        .then(|| with_revisit(given, r.current_index))
-        .flatten();
+    let revisited = if r.revisit {
+        with_revisit(given, r.current_index)
+    } else if r.captured {
+        given[r.current_index.min(given.len())..]
+            .iter()
+            .position(StackItem::is_fixed)
+            .and_then(|k| with_captured_skipped(given, r.current_index, r.current_index + k))
+    } else {
+        None
+    };
     let stack = revisited.as_deref().unwrap_or(given);
     // The altitudes still to fly.
     let (mut lo, mut hi) = (r.state.alt_m, r.state.alt_m);
@@ -365,7 +377,13 @@ pub fn replan(
     };
     let mut params = cfg.plan;
     params.strategy = r.strategy;
-    let pending = r.target_pending_s.filter(|p| p.is_finite()).unwrap_or(0.0);
+    // A waypoint captured on the way is skipped: the next one has only now become the
+    // target.
+    let skipped = !r.revisit && revisited.is_some();
+    let pending = r
+        .target_pending_s
+        .filter(|p| p.is_finite() && !skipped)
+        .unwrap_or(0.0);
     params.verify.delay_credit_s = (params.verify.delay_credit_s - pending.max(0.0)).max(0.0);
     params.variability = dynamic.variability;
     let req = PlanRequest {

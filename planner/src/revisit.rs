@@ -106,6 +106,80 @@ pub fn missed_waypoint(
     })
 }
 
+/// Within this distance of the aircraft's track (three dimensions) a mission waypoint
+/// ahead counts as captured on the way ([`captured_on_the_way`]), metres: the judges'
+/// 100 ft less 5.5 m for the telemetry's own error.
+pub const ON_THE_WAY_M: f64 = 25.0;
+
+/// A mission waypoint ahead that the aircraft has already captured on its way to an avoid
+/// item before it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Captured {
+    /// Its index in the stack (after `current_index`).
+    pub stack_index: usize,
+    /// Its index in the mission's waypoints.
+    pub mission_index: usize,
+    /// The track's closest approach to it, metres (three dimensions; at most
+    /// [`ON_THE_WAY_M`]).
+    pub closest_m: f64,
+}
+
+/// The next fixed item of `stack` (from `current_index` on), when it is a mission waypoint
+/// behind at least one avoid item, it was the item pursued at the last plan (`pursued`: its
+/// stack index and since when it has been the target, seconds on the track's clock), and
+/// `track` (time order, from then on) came within [`ON_THE_WAY_M`] of it. The judges count
+/// it there, but the autopilot switches only at the item it flies toward, so without this
+/// the plan goes on routing the aircraft back to a waypoint it already has (Webster Field,
+/// spline seed 218: waypoint 1 passed 11 m off on the way to an avoid item at 7 s, then
+/// still pending, and detoured round, for 45 s until a sphere was hit). Only evidence
+/// since it became the target counts (waypoints are captured in order), and the last item
+/// of a stack is never skipped (the mission would be left with nothing to fly).
+pub fn captured_on_the_way(
+    stack: &[StackItem],
+    current_index: usize,
+    pursued: (usize, f64),
+    track: &[TrackPoint],
+) -> Option<Captured> {
+    let j = current_index + stack.get(current_index..)?.iter().position(|i| i.is_fixed())?;
+    let item = stack[j];
+    let mission_index = item.mission_index?;
+    if j == current_index || item.kind != ItemKind::Mission || pursued.0 != j || j + 1 >= stack.len()
+    {
+        return None;
+    }
+    let from = track.partition_point(|p| p.t_s < pursued.1);
+    let closest_m = match &track[from..] {
+        [] => return None,
+        [only] => distance_m(only, only, &item, 0.0),
+        since => since
+            .windows(2)
+            .map(|w| distance_m(&w[0], &w[1], &item, 1.0))
+            .fold(f64::INFINITY, f64::min),
+    };
+    (closest_m <= ON_THE_WAY_M).then_some(Captured {
+        stack_index: j,
+        mission_index,
+        closest_m,
+    })
+}
+
+/// `stack` without the items from `current_index` through `captured` (the avoid items
+/// before a waypoint captured on the way, and the waypoint): the item after it becomes the
+/// one at `current_index`. `None` when `captured` is not such an index.
+pub fn with_captured_skipped(
+    stack: &[StackItem],
+    current_index: usize,
+    captured: usize,
+) -> Option<Vec<StackItem>> {
+    if captured < current_index || captured + 1 >= stack.len() {
+        return None;
+    }
+    let mut out = Vec::with_capacity(stack.len() - (captured + 1 - current_index));
+    out.extend_from_slice(&stack[..current_index]);
+    out.extend_from_slice(&stack[captured + 1..]);
+    Some(out)
+}
+
 /// `stack` with the item at `current_index - 1` flown again: a copy of it at
 /// `current_index`, the rest after it. `None` when there is no such item.
 pub fn with_revisit(stack: &[StackItem], current_index: usize) -> Option<Vec<StackItem>> {
@@ -250,5 +324,74 @@ mod tests {
         assert_eq!(last.len(), 3);
         assert_eq!(last[2], stack()[1]);
         assert_eq!(with_revisit(&stack(), 0), None);
+    }
+
+    /// An avoid item, then mission waypoint 0 at the origin, then waypoint 1.
+    fn detour() -> Vec<StackItem> {
+        vec![
+            StackItem::avoid([200.0, 300.0], 100.0),
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::mission(1, [1000.0, 0.0], 100.0),
+        ]
+    }
+
+    #[test]
+    fn a_waypoint_passed_within_25_m_on_the_way_to_an_avoid_item_is_captured() {
+        let s = detour();
+        // Pursued (stack index 1) since t = 0; the track passes 20 m off it.
+        let c = captured_on_the_way(&s, 0, (1, 0.0), &pass(20.0, 60.0)).expect("captured");
+        assert_eq!((c.stack_index, c.mission_index), (1, 0));
+        assert!((c.closest_m - 20.0).abs() < 1e-9, "{c:?}");
+        // 28 m off is within the judges' 100 ft but not within the margin for the
+        // telemetry's error; 25 m exactly counts.
+        assert_eq!(captured_on_the_way(&s, 0, (1, 0.0), &pass(28.0, 60.0)), None);
+        assert!(captured_on_the_way(&s, 0, (1, 0.0), &pass(ON_THE_WAY_M, 60.0)).is_some());
+        // In three dimensions: 20 m sideways and 20 m above is 28.3 m.
+        let mut high = pass(20.0, 60.0);
+        for p in &mut high {
+            p.alt_m = 120.0;
+        }
+        assert_eq!(captured_on_the_way(&s, 0, (1, 0.0), &high), None);
+        // The pass between two samples counts (segments, not only samples): samples 80 m
+        // apart, none of them within 25 m of the waypoint.
+        let sparse: Vec<TrackPoint> = pass(20.0, 60.0).into_iter().step_by(20).collect();
+        assert!(
+            sparse.iter().all(|p| p.p_m[0].hypot(p.p_m[1]) > ON_THE_WAY_M),
+            "{sparse:?}"
+        );
+        assert!(captured_on_the_way(&s, 0, (1, 0.0), &sparse).is_some());
+        // Skipped: the avoid item and the waypoint go; the next waypoint is at index 0.
+        let skipped = with_captured_skipped(&s, 0, c.stack_index).expect("skipped");
+        assert_eq!(skipped, vec![s[2]]);
+    }
+
+    #[test]
+    fn only_evidence_since_it_became_the_target_and_never_the_item_flown_toward() {
+        let s = detour();
+        let near = pass(20.0, 60.0);
+        // The pass was before the waypoint became the target (it ends at t = 13 s).
+        assert_eq!(captured_on_the_way(&s, 0, (1, 20.0), &near), None);
+        // Not the item pursued at the last plan.
+        assert_eq!(captured_on_the_way(&s, 0, (2, 0.0), &near), None);
+        // The waypoint is the item the autopilot flies toward: it switches on its own.
+        assert_eq!(captured_on_the_way(&s, 1, (1, 0.0), &near), None);
+        // An avoid item ahead is not a waypoint; the last item is never skipped.
+        let last = vec![
+            StackItem::avoid([200.0, 300.0], 100.0),
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+        ];
+        assert_eq!(captured_on_the_way(&last, 0, (1, 0.0), &near), None);
+        assert_eq!(with_captured_skipped(&last, 0, 1), None);
+        // No track.
+        assert_eq!(captured_on_the_way(&s, 0, (1, 0.0), &[]), None);
+        // History before the current index stays: two avoid items flown, then the detour.
+        let mut long = vec![StackItem::mission(5, [-500.0, 0.0], 100.0)];
+        long.extend(detour());
+        let c = captured_on_the_way(&long, 1, (2, 0.0), &near).expect("captured");
+        assert_eq!(c.stack_index, 2);
+        assert_eq!(
+            with_captured_skipped(&long, 1, 2).expect("skipped"),
+            vec![long[0], long[3]]
+        );
     }
 }

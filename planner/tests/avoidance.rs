@@ -71,6 +71,7 @@ fn request<'a>(m: &'a Mission, stack: &'a [StackItem]) -> Replan<'a> {
         seed: 11,
         target_pending_s: None,
         revisit: false,
+        captured: false,
     }
 }
 

@@ -59,6 +59,7 @@ fn request<'a>(m: &'a Mission, stack: &'a [planner::StackItem], seed: u64) -> Re
         seed,
         target_pending_s: None,
         revisit: false,
+        captured: false,
     }
 }
 
@@ -164,6 +165,7 @@ fn the_time_a_waypoint_has_been_pending_uses_up_the_delay_a_route_may_take_to_re
             strategy: Strategy::None,
             target_pending_s: pending,
             revisit: false,
+            captured: false,
             ..request(&m, &stack, 5)
         };
         replan(&r, Dynamic::Field(&Ring), &cfg, &Termination::none())
@@ -185,4 +187,64 @@ fn the_time_a_waypoint_has_been_pending_uses_up_the_delay_a_route_may_take_to_re
         late.verification
     );
     assert!((late.verification.peak_risk - 0.2).abs() < 1e-12);
+}
+
+#[test]
+fn a_waypoint_captured_on_the_way_is_skipped_with_the_avoid_items_before_it() {
+    // The stack flown: an avoid item, waypoint 0, then the test above's loop to waypoint 1
+    // inside the ring. The caller found waypoint 0 captured on the way: the plan goes on
+    // with the loop, its diff against the stack as given removes the avoid item and the
+    // waypoint, and the 100 s waypoint 0 was pending are not charged to waypoint 1 (they
+    // would leave no delay credit, and the loop would not be clear: see the test above).
+    let m = mission();
+    let stack = [
+        planner::StackItem::avoid([-250.0, -300.0], 100.0),
+        planner::StackItem::mission(0, [0.0, 300.0], 100.0),
+        planner::StackItem::avoid([250.0, 450.0], 100.0),
+        planner::StackItem::mission(1, [500.0, 0.0], 100.0),
+    ];
+    let cfg = ReplanConfig::default();
+    let plan_with = |captured: bool, pending: Option<f64>| {
+        let r = Replan {
+            current_index: 0,
+            strategy: Strategy::None,
+            target_pending_s: pending,
+            captured,
+            ..request(&m, &stack, 5)
+        };
+        replan(&r, Dynamic::Field(&Ring), &cfg, &Termination::none())
+            .expect("plan")
+            .plan
+    };
+    let kept = plan_with(false, Some(100.0));
+    assert_eq!(kept.items, stack, "not captured: the stack is kept");
+    assert!(kept.diff.is_empty());
+    let skipped = plan_with(true, Some(100.0));
+    assert_eq!((skipped.items.as_slice(), skipped.current_index), (&stack[2..], 0));
+    assert_eq!(skipped.diff.first_changed, Some(0));
+    assert_eq!((skipped.diff.remove, skipped.diff.insert.as_slice()), (4, &stack[2..]));
+    // The pending time is dropped with the waypoint: clear, the same verification as fresh.
+    assert!(
+        skipped.verification.is_clear(cfg.plan.safe_risk),
+        "{:?}",
+        skipped.verification
+    );
+    assert_eq!(
+        skipped.verification,
+        plan_with(true, None).verification,
+        "waypoint 1 is charged nothing of waypoint 0's wait"
+    );
+    // With a revisit asked too, the revisit wins and nothing is skipped.
+    let r = Replan {
+        current_index: 1,
+        strategy: Strategy::None,
+        revisit: true,
+        captured: true,
+        ..request(&m, &stack, 5)
+    };
+    let revisit = replan(&r, Dynamic::Field(&Ring), &cfg, &Termination::none())
+        .expect("plan")
+        .plan;
+    assert_eq!(revisit.items.len(), 5, "{:?}", revisit.items);
+    assert_eq!(revisit.items[1], stack[0]);
 }

@@ -107,6 +107,9 @@ pub struct PlanInputs {
     /// The mission waypoint just passed too wide, flown again by this plan
     /// ([`planner::Replan::revisit`]; found by [`missed_waypoint`] when the plan was asked).
     pub revisit: Option<planner::Missed>,
+    /// The mission waypoint ahead captured on the way, skipped by this plan with the avoid
+    /// items before it ([`planner::Replan::captured`]; found by [`captured_waypoint`]).
+    pub captured: Option<planner::Captured>,
 }
 
 /// The mission's own waypoints as a stack.
@@ -253,6 +256,7 @@ pub fn compute(
         seed: inputs.seed,
         target_pending_s: inputs.target_since_s.map(|since| (s.t_s - since).max(0.0)),
         revisit: inputs.revisit.is_some(),
+        captured: inputs.captured.is_some(),
     };
     let mut until = planner::Termination::deadline(deadline);
     if let Some(flag) = cancel {
@@ -414,6 +418,15 @@ fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
             ),
         });
     }
+    if let Some(c) = inputs.captured {
+        w.push(PlanWarning {
+            code: "waypoint_captured_on_the_way".into(),
+            message: format!(
+                "mission waypoint {} (stack item {}) was passed {:.1} m away on the way to an avoid item before it, within the judges' 100 ft (30.48 m) less a margin: the judges count it, so the plan skips it and the avoid items before it (\"skip_captured\": false turns this off)",
+                c.mission_index, c.stack_index, c.closest_m
+            ),
+        });
+    }
     w
 }
 
@@ -464,15 +477,35 @@ pub fn missed_waypoint(
 ) -> Option<planner::Missed> {
     let frame = mission.frame();
     let base = enu_stack(&mission.to_planner(), &frame, stack);
-    let track: Vec<planner::TrackPoint> = telemetry
+    planner::missed_waypoint(&base, current_index, pursued, &own_track(&frame, telemetry))
+}
+
+/// The mission waypoint after `current_index` in `stack` (empty: the mission's), the next
+/// fixed item behind avoid items and pursued at the last plan (`pursued`: its index, since
+/// when), that `telemetry` (oldest first, since then) shows the aircraft has already
+/// captured on the way ([`planner::revisit::captured_on_the_way`]).
+pub fn captured_waypoint(
+    mission: &Mission,
+    stack: &[GeoItem],
+    current_index: usize,
+    pursued: (usize, f64),
+    telemetry: &[TelemetryRow],
+) -> Option<planner::Captured> {
+    let frame = mission.frame();
+    let base = enu_stack(&mission.to_planner(), &frame, stack);
+    planner::captured_on_the_way(&base, current_index, pursued, &own_track(&frame, telemetry))
+}
+
+/// `telemetry` as the planner's track, in `frame`.
+fn own_track(frame: &wire::geodesy::LocalFrame, telemetry: &[TelemetryRow]) -> Vec<planner::TrackPoint> {
+    telemetry
         .iter()
         .map(|r| planner::TrackPoint {
             t_s: r.t_s,
             p_m: frame.to_enu(r.lat_deg, r.lon_deg),
             alt_m: r.alt_msl_m,
         })
-        .collect();
-    planner::missed_waypoint(&base, current_index, pursued, &track)
+        .collect()
 }
 
 /// A new seed that survives JSON numbers in every client (< 2^53).

@@ -75,9 +75,14 @@ pub struct InputsRecord {
     /// revisits).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub revisit: Option<StoredMissed>,
+    /// The waypoint ahead captured on the way, skipped by the plan (absent: none, as in
+    /// plans stored before the skip).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub captured: Option<StoredMissed>,
 }
 
-/// The stored form of [`planner::Missed`].
+/// The stored form of [`planner::Missed`] (and of [`planner::Captured`], the same three
+/// numbers).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct StoredMissed {
     /// Its index in the base stack.
@@ -189,6 +194,11 @@ impl InputsRecord {
                 mission_index: m.mission_index,
                 closest_m: m.closest_m,
             }),
+            captured: inputs.captured.map(|c| StoredMissed {
+                stack_index: c.stack_index,
+                mission_index: c.mission_index,
+                closest_m: c.closest_m,
+            }),
         }
     }
 
@@ -245,6 +255,11 @@ impl InputsRecord {
                 stack_index: m.stack_index,
                 mission_index: m.mission_index,
                 closest_m: m.closest_m,
+            }),
+            captured: self.captured.map(|c| planner::Captured {
+                stack_index: c.stack_index,
+                mission_index: c.mission_index,
+                closest_m: c.closest_m,
             }),
         })
     }
@@ -421,6 +436,7 @@ mod tests {
             observations,
             target_since_s: None,
             revisit: None,
+            captured: None,
         }
     }
 
@@ -502,6 +518,11 @@ mod tests {
                 mission_index: 0,
                 closest_m: 41.25,
             }),
+            captured: Some(planner::Captured {
+                stack_index: 2,
+                mission_index: 1,
+                closest_m: 12.5,
+            }),
             ..expected(Observations::Through(9))
         };
         let text = InputsRecord::of(&inputs).to_json().unwrap();
@@ -518,6 +539,10 @@ mod tests {
             v["revisit"],
             json!({"stack_index": 0, "mission_index": 0, "closest_m": 41.25})
         );
+        assert_eq!(
+            v["captured"],
+            json!({"stack_index": 2, "mission_index": 1, "closest_m": 12.5})
+        );
         assert_eq!(stored_inputs(&row(&text)).unwrap(), inputs);
         let plain = InputsRecord::of(&expected(Observations::Through(9)))
             .to_json()
@@ -527,6 +552,7 @@ mod tests {
                 && !plain.contains("shown_bank")
                 && !plain.contains("acceptance")
                 && !plain.contains("revisit")
+                && !plain.contains("captured")
         );
     }
 

@@ -15,7 +15,7 @@ use utoipa::ToSchema;
 use utoipa_axum::{router::OpenApiRouter, routes};
 
 use super::plan_compute::{
-    CancelOnDrop, GeoItem, Observations, PlanInputs, Start, compute, missed_waypoint, new_seed,
+    CancelOnDrop, GeoItem, Observations, PlanInputs, Start, captured_waypoint, compute, missed_waypoint, new_seed,
     plan_out, planned_speed_mps, stack_start, stored_snapshot,
 };
 use super::plan_inputs::{InputsRecord, stored_inputs};
@@ -260,6 +260,13 @@ pub struct PlanBody {
     /// rest (a waypoint is passed three times at most) and warns `waypoint_revisited`.
     /// `false`: never.
     pub revisit_missed: Option<bool>,
+    /// Skip a mission waypoint captured on the way (default true): when the next mission
+    /// waypoint lies behind avoid items and the aircraft's telemetry since the base
+    /// revision pursued it came within 25 m of it (three dimensions; the judges' 100 ft
+    /// less a margin for the telemetry's error) while the autopilot flew toward an avoid
+    /// item, the plan drops the avoid items before it and the waypoint, goes on to the
+    /// next item, and warns `waypoint_captured_on_the_way`. `false`: never.
+    pub skip_captured: Option<bool>,
 }
 
 /// Plan a revised waypoint stack.
@@ -423,6 +430,26 @@ async fn create_plan(
         }
         _ => None,
     };
+    // The waypoint the base revision pursued, still the next fixed item behind an avoid
+    // item, captured on the way since (the judges count it; the autopilot switches only at
+    // the item it flies toward). The track is read only while an avoid item before it is
+    // the target.
+    let next = next_fixed(&stack, mission.content.waypoints.len(), current_index);
+    let captured = match base_target {
+        Some((k, since))
+            if revisit.is_none()
+                && body.skip_captured.unwrap_or(true)
+                && next == Some(k)
+                && k > current_index =>
+        {
+            let track = state
+                .store
+                .list_telemetry_since(&id, since - planner::revisit::TRACK_GAP_S, REVISIT_SAMPLES)
+                .await?;
+            captured_waypoint(&mission, &stack, current_index, (k, since), &track)
+        }
+        _ => None,
+    };
     let max_age = body.max_map_age_ms.map(std::time::Duration::from_millis);
     let (snap, lag) = state.live.plan_snapshot(&state, &mission, max_age).await?;
     timing.lap("snapshot");
@@ -444,6 +471,7 @@ async fn create_plan(
         observations: Observations::Through(snap.seq),
         target_since_s,
         revisit,
+        captured,
     };
     let (m2, in2) = (mission.clone(), inputs.clone());
     let cancel = CancelOnDrop::default();

@@ -208,6 +208,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
         observations: Observations::Given(observations),
         target_since_s: None,
         revisit: None,
+        captured: None,
     };
     let computed = match compute(&m, &inputs, &snap, None) {
         Ok(c) => c,

@@ -19,6 +19,7 @@ both_stores!(
     a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows,
     without_a_turn_radius_the_plan_turns_at_the_bank_the_telemetry_has_shown,
     a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice,
+    a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped,
 );
 
 /// Time of obstacle "0"'s first observation, Unix seconds.
@@ -1006,4 +1007,76 @@ async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice(app: A
         &off["waypoints"][next_mission_item(&off, k + 1)],
         &wp
     ));
+}
+
+/// The aircraft went past the waypoint the last plan pursued 15 m off while the autopilot
+/// still flew toward an avoid item before it (the plan's detour round a sphere sitting on
+/// the straight line): the judges count it, so the next plan drops the avoid items and the
+/// waypoint and goes on to the next one (warning `waypoint_captured_on_the_way` with the
+/// distance), and replays identically. 40 m off, or with `"skip_captured": false`, the
+/// waypoint stays the next mission item.
+async fn a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped(app: App) {
+    let detour = |east_m: f64| {
+        let app = &app;
+        async move {
+            let id = app.create_webster_mission().await;
+            let m = app.get_json(&format!("/api/v1/missions/{id}")).await;
+            let wp = m["waypoints"][1].clone();
+            let (lat, lon, alt) = (num(&wp, "/lat"), num(&wp, "/lon"), num(&wp, "/alt_msl_m"));
+            // A sphere of 40 m 150 m south of waypoint 1, still for 5 s.
+            let south = 150.0 / (111_132.9 - 559.8 * (2.0 * lat.to_radians()).cos());
+            let obs: Vec<Value> = (0..=10)
+                .map(|k| {
+                    json!({"obstacle_id": "9", "t": T0 - 5.0 + 0.5 * f64::from(k),
+                           "lat": lat - south, "lon": lon, "alt_msl_m": alt, "radius_m": 40.0})
+                })
+                .collect();
+            app.post_observations(&id, json!(obs)).await;
+            fly_past(app, &id, &wp, east_m, T0, 0..=0).await;
+            let p1 = plan(app, &id, json!({"seed": 1, "current_index": 1})).await;
+            let k = next_mission_item(&p1, 1);
+            assert_eq!(p1["waypoints"][k]["mission_index"], 1, "{p1}");
+            assert!(k > 1, "avoid items before waypoint 1: {p1}");
+            // The rest of the pass; the autopilot still flies toward item 1.
+            fly_past(app, &id, &wp, east_m, T0, 1..=100).await;
+            (id, p1)
+        }
+    };
+    let has_waypoint_1 = |p: &Value| {
+        p["waypoints"].as_array().unwrap()[1..]
+            .iter()
+            .any(|w| w["mission_index"] == 1)
+    };
+    let (id, p1) = detour(15.0).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": 1});
+    let p2 = plan(&app, &id, body).await;
+    let message = warning(&p2, "waypoint_captured_on_the_way")
+        .unwrap_or_else(|| panic!("a waypoint_captured_on_the_way warning: {}", p2["warnings"]));
+    let passed: f64 = message
+        .split("passed ")
+        .nth(1)
+        .and_then(|m| m.split(" m").next())
+        .and_then(|m| m.parse().ok())
+        .unwrap_or_else(|| panic!("a distance in: {message}"));
+    assert!((passed - 15.0).abs() < 0.5, "{message}");
+    assert!(!has_waypoint_1(&p2), "waypoint 1 is skipped: {p2}");
+    assert_eq!(p2["waypoints"][0], p1["waypoints"][0], "the item before stays");
+    assert_eq!(p2["waypoints"][next_mission_item(&p2, 1)]["mission_index"], 2, "{p2}");
+    assert_eq!(p2["current_index"], 1);
+    assert_eq!(p2["diff"]["first_changed"], 1, "{}", p2["diff"]);
+    assert_replays_identically(&app, &id, &p2).await;
+
+    // 40 m off: not captured (the judges' 100 ft less the margin is 25 m).
+    let (id, _) = detour(40.0).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": 1});
+    let wide = plan(&app, &id, body).await;
+    assert_eq!(warning(&wide, "waypoint_captured_on_the_way"), None);
+    assert!(has_waypoint_1(&wide), "{wide}");
+    // 15 m off, but the client turned the skip off.
+    let (id, _) = detour(15.0).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": 1,
+                      "skip_captured": false});
+    let off = plan(&app, &id, body).await;
+    assert_eq!(warning(&off, "waypoint_captured_on_the_way"), None);
+    assert!(has_waypoint_1(&off), "{off}");
 }

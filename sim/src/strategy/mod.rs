@@ -270,19 +270,38 @@ impl TargetClock {
         if position_bits(view.stack.items.get(k)?) != bits {
             return None;
         }
-        let from = view
-            .own_track
-            .partition_point(|(t, _)| *t < since - planner::revisit::TRACK_GAP_S);
-        let track: Vec<planner::TrackPoint> = view.own_track[from..]
-            .iter()
-            .map(|&(t_s, p)| planner::TrackPoint {
-                t_s,
-                p_m: [p[0], p[1]],
-                alt_m: p[2],
-            })
-            .collect();
+        let track = track_since(view, since);
         planner::missed_waypoint(&view.stack.items, view.stack.current, (k, since), &track)
     }
+
+    /// The mission waypoint ahead that `view`'s aircraft captured on its way to an avoid
+    /// item before it ([`planner::captured_on_the_way`]): the next fixed item, when it was
+    /// the target at the last call, and the track since it became the target. Call before
+    /// [`TargetClock::pending_s`].
+    pub fn captured(&self, view: &View<'_>) -> Option<planner::Captured> {
+        let (bits, since) = self.target?;
+        let (items, cur) = (&view.stack.items, view.stack.current);
+        let j = cur + items.get(cur..)?.iter().position(planner::StackItem::is_fixed)?;
+        if position_bits(&items[j]) != bits {
+            return None;
+        }
+        planner::captured_on_the_way(items, cur, (j, since), &track_since(view, since))
+    }
+}
+
+/// `view`'s own track from a sample gap before `since` on.
+fn track_since(view: &View<'_>, since: f64) -> Vec<planner::TrackPoint> {
+    let from = view
+        .own_track
+        .partition_point(|(t, _)| *t < since - planner::revisit::TRACK_GAP_S);
+    view.own_track[from..]
+        .iter()
+        .map(|&(t_s, p)| planner::TrackPoint {
+            t_s,
+            p_m: [p[0], p[1]],
+            alt_m: p[2],
+        })
+        .collect()
 }
 
 /// Replans `view`'s stack through the server's seam ([`planner::replan`]) with `dynamic`
@@ -297,6 +316,7 @@ pub fn replan_command(
     clock: &mut TargetClock,
 ) -> Command {
     let revisit = clock.missed(view).is_some();
+    let captured = !revisit && clock.captured(view).is_some();
     let r = planner::Replan {
         mission: view.mission,
         aircraft: view.aircraft.planner_aircraft(),
@@ -307,6 +327,7 @@ pub fn replan_command(
         seed,
         target_pending_s: clock.pending_s(view),
         revisit,
+        captured,
     };
     // The service is told the autopilot's acceptance radius (`aircraft.acceptance_radius_m`).
     let mut cfg = cfg.clone();
@@ -345,7 +366,7 @@ fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
         .unwrap_or_else(|| "none".into());
     eprintln!(
         "plan t={:.1} s pos=({:.0}, {:.0}) alt={:.0} current_index={} next_fixed={} \
-         pending_s={:?} revisit={} outcome={:?} \
+         pending_s={:?} revisit={} captured={} outcome={:?} \
          near_peak={:.2} graded_peak={:.2} peak={:.2} exposure_m={:.0} length_m={:.0} \
          added={} conflict={:?}",
         view.t_s,
@@ -356,6 +377,7 @@ fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
         next,
         r.target_pending_s,
         r.revisit,
+        r.captured,
         plan.outcome,
         v.near_peak_risk,
         v.graded_peak_risk,
@@ -484,5 +506,46 @@ mod tests {
         // Once the clock has moved on to waypoint 1, waypoint 0 is no longer its business.
         assert_eq!(clock.pending_s(&v1), Some(0.0));
         assert_eq!(clock.missed(&v1), None);
+    }
+
+    #[test]
+    fn the_clock_flags_a_waypoint_pursued_at_the_last_call_and_captured_on_the_way() {
+        let mission = Mission::default();
+        let aircraft = AircraftParams::default();
+        // The autopilot flies toward an avoid item far north-east; waypoint 0 comes next.
+        let stack = Stack {
+            items: vec![
+                StackItem::avoid([300.0, 400.0], 100.0),
+                StackItem::mission(0, [0.0, 0.0], 100.0),
+                StackItem::mission(1, [0.0, 1000.0], 100.0),
+            ],
+            current: 0,
+        };
+        // Northward `east` m east of waypoint 0, at 5 Hz from 200 m south of it.
+        let track = |east: f64| -> Vec<(f64, [f64; 3])> {
+            (0..=60)
+                .map(|k| {
+                    let k = f64::from(k);
+                    (0.2 * k, [east, -200.0 + 4.0 * k, 100.0])
+                })
+                .collect()
+        };
+        let (near, wide) = (track(15.0), track(40.0));
+        let mut clock = TargetClock::default();
+        let v0 = view(0.0, &stack, &near[..1], &mission, &aircraft);
+        assert_eq!(clock.captured(&v0), None);
+        assert_eq!(clock.pending_s(&v0), Some(0.0));
+        // 12 s later, still toward the avoid item: waypoint 0 was passed 15 m off.
+        let v1 = view(12.0, &stack, &near, &mission, &aircraft);
+        let c = clock.captured(&v1).expect("captured 15 m off");
+        assert_eq!((c.stack_index, c.mission_index), (1, 0));
+        assert!((c.closest_m - 15.0).abs() < 1e-9);
+        // 40 m off: not captured.
+        assert_eq!(
+            clock.captured(&view(12.0, &stack, &wide, &mission, &aircraft)),
+            None
+        );
+        // Not pursued at the last call (a new clock has never seen it as the target).
+        assert_eq!(TargetClock::default().captured(&v1), None);
     }
 }
