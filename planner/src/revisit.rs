@@ -140,10 +140,17 @@ pub fn captured_on_the_way(
     pursued: (usize, f64),
     track: &[TrackPoint],
 ) -> Option<Captured> {
-    let j = current_index + stack.get(current_index..)?.iter().position(|i| i.is_fixed())?;
+    let j = current_index
+        + stack
+            .get(current_index..)?
+            .iter()
+            .position(|i| i.is_fixed())?;
     let item = stack[j];
     let mission_index = item.mission_index?;
-    if j == current_index || item.kind != ItemKind::Mission || pursued.0 != j || j + 1 >= stack.len()
+    if j == current_index
+        || item.kind != ItemKind::Mission
+        || pursued.0 != j
+        || j + 1 >= stack.len()
     {
         return None;
     }
@@ -344,7 +351,10 @@ mod tests {
         assert!((c.closest_m - 20.0).abs() < 1e-9, "{c:?}");
         // 28 m off is within the judges' 100 ft but not within the margin for the
         // telemetry's error; 25 m exactly counts.
-        assert_eq!(captured_on_the_way(&s, 0, (1, 0.0), &pass(28.0, 60.0)), None);
+        assert_eq!(
+            captured_on_the_way(&s, 0, (1, 0.0), &pass(28.0, 60.0)),
+            None
+        );
         assert!(captured_on_the_way(&s, 0, (1, 0.0), &pass(ON_THE_WAY_M, 60.0)).is_some());
         // In three dimensions: 20 m sideways and 20 m above is 28.3 m.
         let mut high = pass(20.0, 60.0);
@@ -356,7 +366,9 @@ mod tests {
         // apart, none of them within 25 m of the waypoint.
         let sparse: Vec<TrackPoint> = pass(20.0, 60.0).into_iter().step_by(20).collect();
         assert!(
-            sparse.iter().all(|p| p.p_m[0].hypot(p.p_m[1]) > ON_THE_WAY_M),
+            sparse
+                .iter()
+                .all(|p| p.p_m[0].hypot(p.p_m[1]) > ON_THE_WAY_M),
             "{sparse:?}"
         );
         assert!(captured_on_the_way(&s, 0, (1, 0.0), &sparse).is_some());

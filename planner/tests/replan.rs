@@ -220,9 +220,15 @@ fn a_waypoint_captured_on_the_way_is_skipped_with_the_avoid_items_before_it() {
     assert_eq!(kept.items, stack, "not captured: the stack is kept");
     assert!(kept.diff.is_empty());
     let skipped = plan_with(true, Some(100.0));
-    assert_eq!((skipped.items.as_slice(), skipped.current_index), (&stack[2..], 0));
+    assert_eq!(
+        (skipped.items.as_slice(), skipped.current_index),
+        (&stack[2..], 0)
+    );
     assert_eq!(skipped.diff.first_changed, Some(0));
-    assert_eq!((skipped.diff.remove, skipped.diff.insert.as_slice()), (4, &stack[2..]));
+    assert_eq!(
+        (skipped.diff.remove, skipped.diff.insert.as_slice()),
+        (4, &stack[2..])
+    );
     // The pending time is dropped with the waypoint: clear, the same verification as fresh.
     assert!(
         skipped.verification.is_clear(cfg.plan.safe_risk),

@@ -458,7 +458,11 @@ mod tests {
         let at = lap.at(&t, s, 5.0).expect("within the track");
         let (a, b) = (out_and_back(65.0 + s + 0.5), out_and_back(65.0 + s - 0.5));
         let truth = [a[0] - b[0], a[1] - b[1]];
-        assert!(dist(at.velocity, truth) < 0.3, "{:?} {truth:?}", at.velocity);
+        assert!(
+            dist(at.velocity, truth) < 0.3,
+            "{:?} {truth:?}",
+            at.velocity
+        );
         assert_eq!((at.sigma_m, at.jitter_s), (lap.sigma_m(s), lap.jitter_s(s)));
         // No deviate: the base; one sigma of timing: a jitter's worth of flight along it.
         assert_eq!(at.particle([0.0; 3]), at.base);

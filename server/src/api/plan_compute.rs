@@ -497,7 +497,10 @@ pub fn captured_waypoint(
 }
 
 /// `telemetry` as the planner's track, in `frame`.
-fn own_track(frame: &wire::geodesy::LocalFrame, telemetry: &[TelemetryRow]) -> Vec<planner::TrackPoint> {
+fn own_track(
+    frame: &wire::geodesy::LocalFrame,
+    telemetry: &[TelemetryRow],
+) -> Vec<planner::TrackPoint> {
     telemetry
         .iter()
         .map(|r| planner::TrackPoint {

@@ -15,8 +15,8 @@ use utoipa::ToSchema;
 use utoipa_axum::{router::OpenApiRouter, routes};
 
 use super::plan_compute::{
-    CancelOnDrop, GeoItem, Observations, PlanInputs, Start, captured_waypoint, compute, missed_waypoint, new_seed,
-    plan_out, planned_speed_mps, stack_start, stored_snapshot,
+    CancelOnDrop, GeoItem, Observations, PlanInputs, Start, captured_waypoint, compute,
+    missed_waypoint, new_seed, plan_out, planned_speed_mps, stack_start, stored_snapshot,
 };
 use super::plan_inputs::{InputsRecord, stored_inputs};
 use super::plan_record::{PlanRecord, stored_plan_out};

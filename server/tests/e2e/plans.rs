@@ -1060,8 +1060,15 @@ async fn a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped(app: App) {
         .unwrap_or_else(|| panic!("a distance in: {message}"));
     assert!((passed - 15.0).abs() < 0.5, "{message}");
     assert!(!has_waypoint_1(&p2), "waypoint 1 is skipped: {p2}");
-    assert_eq!(p2["waypoints"][0], p1["waypoints"][0], "the item before stays");
-    assert_eq!(p2["waypoints"][next_mission_item(&p2, 1)]["mission_index"], 2, "{p2}");
+    assert_eq!(
+        p2["waypoints"][0], p1["waypoints"][0],
+        "the item before stays"
+    );
+    assert_eq!(
+        p2["waypoints"][next_mission_item(&p2, 1)]["mission_index"],
+        2,
+        "{p2}"
+    );
     assert_eq!(p2["current_index"], 1);
     assert_eq!(p2["diff"]["first_changed"], 1, "{}", p2["diff"]);
     assert_replays_identically(&app, &id, &p2).await;

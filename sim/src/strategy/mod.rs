@@ -281,7 +281,11 @@ impl TargetClock {
     pub fn captured(&self, view: &View<'_>) -> Option<planner::Captured> {
         let (bits, since) = self.target?;
         let (items, cur) = (&view.stack.items, view.stack.current);
-        let j = cur + items.get(cur..)?.iter().position(planner::StackItem::is_fixed)?;
+        let j = cur
+            + items
+                .get(cur..)?
+                .iter()
+                .position(planner::StackItem::is_fixed)?;
         if position_bits(&items[j]) != bits {
             return None;
         }
