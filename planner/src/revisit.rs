@@ -335,11 +335,9 @@ mod tests {
 
     /// An avoid item, then mission waypoint 0 at the origin, then waypoint 1.
     fn detour() -> Vec<StackItem> {
-        vec![
-            StackItem::avoid([200.0, 300.0], 100.0),
-            StackItem::mission(0, [0.0, 0.0], 100.0),
-            StackItem::mission(1, [1000.0, 0.0], 100.0),
-        ]
+        let mut s = vec![StackItem::avoid([200.0, 300.0], 100.0)];
+        s.extend(stack());
+        s
     }
 
     #[test]

@@ -105,10 +105,10 @@ pub struct PlanInputs {
     /// the target stays the same ([`planner::Replan::target_pending_s`]). `None`: unknown.
     pub target_since_s: Option<f64>,
     /// The mission waypoint just passed too wide, flown again by this plan
-    /// ([`planner::Replan::revisit`]; found by [`missed_waypoint`] when the plan was asked).
+    /// ([`planner::Replan::revisit`]; found from the track when the plan was asked).
     pub revisit: Option<planner::Missed>,
     /// The mission waypoint ahead captured on the way, skipped by this plan with the avoid
-    /// items before it ([`planner::Replan::captured`]; found by [`captured_waypoint`]).
+    /// items before it ([`planner::Replan::captured`]; found from the track when the plan was asked).
     pub captured: Option<planner::Captured>,
 }
 
@@ -464,51 +464,23 @@ fn enu_stack(
         .collect()
 }
 
-/// The mission waypoint before `current_index` in `stack` (empty: the mission's), pursued
-/// at the last plan (`pursued`: its index, since when), that `telemetry` (oldest first,
-/// since then) shows the aircraft has gone past farther than the judges' 100 ft
-/// ([`planner::revisit::missed_waypoint`]).
-pub fn missed_waypoint(
+/// `stack` (empty: the mission's) and `telemetry` (oldest first) in the planner's ENU terms,
+/// for [`planner::missed_waypoint`] and [`planner::captured_on_the_way`].
+pub fn enu_track(
     mission: &Mission,
     stack: &[GeoItem],
-    current_index: usize,
-    pursued: (usize, f64),
     telemetry: &[TelemetryRow],
-) -> Option<planner::Missed> {
+) -> (Vec<StackItem>, Vec<planner::TrackPoint>) {
     let frame = mission.frame();
-    let base = enu_stack(&mission.to_planner(), &frame, stack);
-    planner::missed_waypoint(&base, current_index, pursued, &own_track(&frame, telemetry))
-}
-
-/// The mission waypoint after `current_index` in `stack` (empty: the mission's), the next
-/// fixed item behind avoid items and pursued at the last plan (`pursued`: its index, since
-/// when), that `telemetry` (oldest first, since then) shows the aircraft has already
-/// captured on the way ([`planner::revisit::captured_on_the_way`]).
-pub fn captured_waypoint(
-    mission: &Mission,
-    stack: &[GeoItem],
-    current_index: usize,
-    pursued: (usize, f64),
-    telemetry: &[TelemetryRow],
-) -> Option<planner::Captured> {
-    let frame = mission.frame();
-    let base = enu_stack(&mission.to_planner(), &frame, stack);
-    planner::captured_on_the_way(&base, current_index, pursued, &own_track(&frame, telemetry))
-}
-
-/// `telemetry` as the planner's track, in `frame`.
-fn own_track(
-    frame: &wire::geodesy::LocalFrame,
-    telemetry: &[TelemetryRow],
-) -> Vec<planner::TrackPoint> {
-    telemetry
+    let track = telemetry
         .iter()
         .map(|r| planner::TrackPoint {
             t_s: r.t_s,
             p_m: frame.to_enu(r.lat_deg, r.lon_deg),
             alt_m: r.alt_msl_m,
         })
-        .collect()
+        .collect();
+    (enu_stack(&mission.to_planner(), &frame, stack), track)
 }
 
 /// A new seed that survives JSON numbers in every client (< 2^53).

@@ -15,8 +15,8 @@ use utoipa::ToSchema;
 use utoipa_axum::{router::OpenApiRouter, routes};
 
 use super::plan_compute::{
-    CancelOnDrop, GeoItem, Observations, PlanInputs, Start, captured_waypoint, compute,
-    missed_waypoint, new_seed, plan_out, planned_speed_mps, stack_start, stored_snapshot,
+    CancelOnDrop, GeoItem, Observations, PlanInputs, Start, compute, enu_track, new_seed, plan_out,
+    planned_speed_mps, stack_start, stored_snapshot,
 };
 use super::plan_inputs::{InputsRecord, stored_inputs};
 use super::plan_record::{PlanRecord, stored_plan_out};
@@ -409,47 +409,36 @@ async fn create_plan(
     });
     // Putting the next waypoint off is bounded in total (planner::Replan::target_pending_s):
     // the clock runs from the first plan that flew toward it, on the start's clock.
-    let target_since_s = match (
-        next_fixed(&stack, mission.content.waypoints.len(), current_index),
-        base_target,
-    ) {
+    let next = next_fixed(&stack, mission.content.waypoints.len(), current_index);
+    let target_since_s = match (next, base_target) {
         (Some(k), Some((base_k, since))) if k == base_k => Some(since),
         (Some(_), _) => Some(start.at.t_s),
         (None, _) => None,
     };
-    // The waypoint the base revision pursued, passed too wide since (none before the first
-    // plan: nothing says when the mission's own waypoints became the target). The track
-    // is read only when the autopilot has just gone past that waypoint.
-    let revisit = match base_target {
-        Some((k, since)) if body.revisit_missed.unwrap_or(true) && current_index == k + 1 => {
-            let track = state
-                .store
-                .list_telemetry_since(&id, since - planner::revisit::TRACK_GAP_S, REVISIT_SAMPLES)
-                .await?;
-            missed_waypoint(&mission, &stack, current_index, (k, since), &track)
-        }
-        _ => None,
-    };
-    // The waypoint the base revision pursued, still the next fixed item behind an avoid
-    // item, captured on the way since (the judges count it; the autopilot switches only at
-    // the item it flies toward). The track is read only while an avoid item before it is
+    // The waypoint the base revision pursued (none before the first plan: nothing says
+    // when the mission's own waypoints became the target), and what the track since says
+    // of it: passed too wide just now (flown again), or captured on the way to an avoid
+    // item before it, still the next fixed item (skipped: the judges count it, the
+    // autopilot switches only at the item it flies toward). The track is read only when
+    // the autopilot has just gone past that waypoint, or while an avoid item before it is
     // the target.
-    let next = next_fixed(&stack, mission.content.waypoints.len(), current_index);
-    let captured = match base_target {
-        Some((k, since))
-            if revisit.is_none()
-                && body.skip_captured.unwrap_or(true)
-                && next == Some(k)
-                && k > current_index =>
-        {
+    let (mut revisit, mut captured) = (None, None);
+    if let Some((k, since)) = base_target {
+        let passed = body.revisit_missed.unwrap_or(true) && current_index == k + 1;
+        let behind = body.skip_captured.unwrap_or(true) && next == Some(k) && k > current_index;
+        if passed || behind {
             let track = state
                 .store
                 .list_telemetry_since(&id, since - planner::revisit::TRACK_GAP_S, REVISIT_SAMPLES)
                 .await?;
-            captured_waypoint(&mission, &stack, current_index, (k, since), &track)
+            let (base, track) = enu_track(&mission, &stack, &track);
+            if passed {
+                revisit = planner::missed_waypoint(&base, current_index, (k, since), &track);
+            } else {
+                captured = planner::captured_on_the_way(&base, current_index, (k, since), &track);
+            }
         }
-        _ => None,
-    };
+    }
     let max_age = body.max_map_age_ms.map(std::time::Duration::from_millis);
     let (snap, lag) = state.live.plan_snapshot(&state, &mission, max_age).await?;
     timing.lap("snapshot");

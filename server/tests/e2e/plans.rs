@@ -890,6 +890,26 @@ async fn fly_past(
     assert_eq!(r.status(), 202);
 }
 
+/// The distance ("passed N m") in `plan`'s warning `code`, which must be there.
+fn passed_at(plan: &Value, code: &str) -> f64 {
+    let message =
+        warning(plan, code).unwrap_or_else(|| panic!("a {code} warning: {}", plan["warnings"]));
+    message
+        .split("passed ")
+        .nth(1)
+        .and_then(|m| m.split(" m").next())
+        .and_then(|m| m.parse().ok())
+        .unwrap_or_else(|| panic!("a distance in: {message}"))
+}
+
+/// A new Webster mission's id and its waypoint 1 as stored.
+async fn webster_waypoint_1(app: &App) -> (String, Value) {
+    let id = app.create_webster_mission().await;
+    let m = app.get_json(&format!("/api/v1/missions/{id}")).await;
+    let wp = m["waypoints"][1].clone();
+    (id, wp)
+}
+
 /// The autopilot went past the waypoint the last plan pursued 40 m off (it crossed the
 /// waypoint's finish line): the judges count 100 ft, so the next plan flies that waypoint
 /// again (a copy of it is the next mission item, after any turn-back item; warning
@@ -903,9 +923,7 @@ async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice(app: A
     let pass = |east_m: f64| {
         let app = &app;
         async move {
-            let id = app.create_webster_mission().await;
-            let m = app.get_json(&format!("/api/v1/missions/{id}")).await;
-            let wp = m["waypoints"][1].clone();
+            let (id, wp) = webster_waypoint_1(app).await;
             fly_past(app, &id, &wp, east_m, T0, 0..=0).await;
             let p1 = plan(app, &id, json!({"seed": 1, "current_index": 1})).await;
             let k = next_mission_item(&p1, 1);
@@ -920,14 +938,8 @@ async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice(app: A
     let (id, wp, k) = pass(40.0).await;
     let body = json!({"seed": 2, "base_revision": 1, "current_index": k + 1});
     let p2 = plan(&app, &id, body).await;
-    let message = warning(&p2, "waypoint_revisited").expect("a waypoint_revisited warning");
-    let passed: f64 = message
-        .split("passed ")
-        .nth(1)
-        .and_then(|m| m.split(" m").next())
-        .and_then(|m| m.parse().ok())
-        .unwrap_or_else(|| panic!("a distance in: {message}"));
-    assert!((passed - 40.0).abs() < 0.5, "{message}");
+    let passed = passed_at(&p2, "waypoint_revisited");
+    assert!((passed - 40.0).abs() < 0.5, "{passed}");
     let wps = p2["waypoints"].as_array().unwrap();
     assert!(
         same_place(&wps[k], &wp),
@@ -1019,9 +1031,7 @@ async fn a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped(app: App) {
     let detour = |east_m: f64| {
         let app = &app;
         async move {
-            let id = app.create_webster_mission().await;
-            let m = app.get_json(&format!("/api/v1/missions/{id}")).await;
-            let wp = m["waypoints"][1].clone();
+            let (id, wp) = webster_waypoint_1(app).await;
             let (lat, lon, alt) = (num(&wp, "/lat"), num(&wp, "/lon"), num(&wp, "/alt_msl_m"));
             // A sphere of 40 m 150 m south of waypoint 1, still for 5 s.
             let south = 150.0 / (111_132.9 - 559.8 * (2.0 * lat.to_radians()).cos());
@@ -1050,15 +1060,8 @@ async fn a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped(app: App) {
     let (id, p1) = detour(15.0).await;
     let body = json!({"seed": 2, "base_revision": 1, "current_index": 1});
     let p2 = plan(&app, &id, body).await;
-    let message = warning(&p2, "waypoint_captured_on_the_way")
-        .unwrap_or_else(|| panic!("a waypoint_captured_on_the_way warning: {}", p2["warnings"]));
-    let passed: f64 = message
-        .split("passed ")
-        .nth(1)
-        .and_then(|m| m.split(" m").next())
-        .and_then(|m| m.parse().ok())
-        .unwrap_or_else(|| panic!("a distance in: {message}"));
-    assert!((passed - 15.0).abs() < 0.5, "{message}");
+    let passed = passed_at(&p2, "waypoint_captured_on_the_way");
+    assert!((passed - 15.0).abs() < 0.5, "{passed}");
     assert!(!has_waypoint_1(&p2), "waypoint 1 is skipped: {p2}");
     assert_eq!(
         p2["waypoints"][0], p1["waypoints"][0],
