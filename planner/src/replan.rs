@@ -34,7 +34,7 @@ use predictor::{NoRisk, ObstacleSummary, Predictor, RiskField, RiskMap, RiskMapC
 use crate::mission::{Aircraft, Mission};
 use crate::plan::{AircraftState, Plan, PlanError, PlanParams, PlanRequest, Strategy, plan_until};
 use crate::revisit::{with_captured_skipped, with_revisit};
-use crate::stack::{StackItem, diff, mission_stack};
+use crate::stack::{StackItem, diff, mission_stack, next_fixed};
 use crate::termination::Termination;
 
 /// Risk-map slice interval, seconds.
@@ -307,17 +307,15 @@ pub fn replan(
     } else {
         r.stack
     };
-    let revisited = if r.revisit {
+    let rewritten = if r.revisit {
         with_revisit(given, r.current_index)
     } else if r.captured {
-        given[r.current_index.min(given.len())..]
-            .iter()
-            .position(StackItem::is_fixed)
-            .and_then(|k| with_captured_skipped(given, r.current_index, r.current_index + k))
+        next_fixed(given, r.current_index)
+            .and_then(|j| with_captured_skipped(given, r.current_index, j))
     } else {
         None
     };
-    let stack = revisited.as_deref().unwrap_or(given);
+    let stack = rewritten.as_deref().unwrap_or(given);
     // The altitudes still to fly.
     let (mut lo, mut hi) = (r.state.alt_m, r.state.alt_m);
     for it in stack.iter().skip(r.current_index) {
@@ -379,7 +377,7 @@ pub fn replan(
     params.strategy = r.strategy;
     // A waypoint captured on the way is skipped: the next one has only now become the
     // target.
-    let skipped = !r.revisit && revisited.is_some();
+    let skipped = !r.revisit && rewritten.is_some();
     let pending = r
         .target_pending_s
         .filter(|p| p.is_finite() && !skipped)
@@ -396,7 +394,7 @@ pub fn replan(
         seed: r.seed,
     };
     let mut plan = plan_until(&req, risk, term)?;
-    if revisited.is_some() {
+    if rewritten.is_some() {
         plan.diff = diff(given, &plan.items);
     }
     Ok(Replanned { plan, dynamic })

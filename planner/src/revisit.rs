@@ -32,7 +32,7 @@
 //! ENU metres, metres MSL, seconds.
 
 use crate::geometry::Point;
-use crate::stack::{ItemKind, StackItem};
+use crate::stack::{ItemKind, StackItem, next_fixed};
 use crate::verify::JUDGE_CAPTURE_M;
 
 /// The track may start this long after the item became the target, seconds (a sample
@@ -140,11 +140,7 @@ pub fn captured_on_the_way(
     pursued: (usize, f64),
     track: &[TrackPoint],
 ) -> Option<Captured> {
-    let j = current_index
-        + stack
-            .get(current_index..)?
-            .iter()
-            .position(|i| i.is_fixed())?;
+    let j = next_fixed(stack, current_index)?;
     let item = stack[j];
     let mission_index = item.mission_index?;
     if j == current_index

@@ -144,6 +144,13 @@ pub fn diff(old: &[StackItem], new: &[StackItem]) -> StackDiff {
     }
 }
 
+/// Index of the first fixed item (mission or search waypoint) of `items` from `from` on;
+/// `None` when only avoid items (or nothing) are left.
+pub fn next_fixed(items: &[StackItem], from: usize) -> Option<usize> {
+    let k = items.get(from..)?.iter().position(StackItem::is_fixed)?;
+    Some(from + k)
+}
+
 /// The stack of a mission's own waypoints (no revision yet).
 pub fn mission_stack(mission: &crate::mission::Mission) -> Vec<StackItem> {
     mission
@@ -157,6 +164,23 @@ pub fn mission_stack(mission: &crate::mission::Mission) -> Vec<StackItem> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_next_fixed_item_skips_avoid_items_and_ends_with_the_stack() {
+        let s = [
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::avoid([1.0, 0.0], 100.0),
+            StackItem::avoid([2.0, 0.0], 100.0),
+            StackItem::search([3.0, 0.0], 100.0),
+            StackItem::avoid([4.0, 0.0], 100.0),
+        ];
+        assert_eq!(next_fixed(&s, 0), Some(0));
+        assert_eq!(next_fixed(&s, 1), Some(3));
+        assert_eq!(next_fixed(&s, 3), Some(3));
+        assert_eq!(next_fixed(&s, 4), None);
+        assert_eq!(next_fixed(&s, 5), None);
+        assert_eq!(next_fixed(&s, 9), None);
+    }
 
     #[test]
     fn a_detour_is_checked_at_its_lowest_altitude_since_the_last_fixed_item() {

@@ -248,10 +248,8 @@ impl TargetClock {
     /// just become the target), `None` when no fixed item is left.
     pub fn pending_s(&mut self, view: &View<'_>) -> Option<f64> {
         let stack = view.stack;
-        let next = stack.items[stack.current.min(stack.items.len())..]
-            .iter()
-            .find(|i| i.is_fixed())
-            .map(position_bits);
+        let next = planner::next_fixed(&stack.items, stack.current)
+            .map(|j| position_bits(&stack.items[j]));
         self.target = match (next, self.target) {
             (Some(k), Some((old, since))) if k == old => Some((k, since)),
             (Some(k), _) => Some((k, view.t_s)),
@@ -281,11 +279,7 @@ impl TargetClock {
     pub fn captured(&self, view: &View<'_>) -> Option<planner::Captured> {
         let (bits, since) = self.target?;
         let (items, cur) = (&view.stack.items, view.stack.current);
-        let j = cur
-            + items
-                .get(cur..)?
-                .iter()
-                .position(planner::StackItem::is_fixed)?;
+        let j = planner::next_fixed(items, cur)?;
         if position_bits(&items[j]) != bits {
             return None;
         }
@@ -363,9 +357,8 @@ pub fn trace_plans() -> bool {
 /// missed waypoint is flown again, the outcome and the chosen route's verification.
 fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
     let v = &plan.verification;
-    let next = plan.items[plan.current_index.min(plan.items.len())..]
-        .iter()
-        .find(|i| i.is_fixed())
+    let next = planner::next_fixed(&plan.items, plan.current_index)
+        .map(|j| &plan.items[j])
         .map(|i| format!("({:.0}, {:.0}, {:.0})", i.p_m[0], i.p_m[1], i.alt_m))
         .unwrap_or_else(|| "none".into());
     eprintln!(
