@@ -407,3 +407,86 @@ proptest! {
         prop_assert!(common::sampled_max(&field, [ax, ay], [bx, by], t0, t1) <= bound + 1e-9);
     }
 }
+
+#[test]
+fn a_waypoint_passed_wide_gets_a_set_up_approach_while_a_far_conflict_remains() {
+    // Heading north to W0 400 m ahead, then W1 45 m to its east (a right angle the 40 m
+    // turn radius cannot make: the modelled flight passes W1 wide), then W2 550 m back
+    // south inside a stationary blob: every route is unclear there (a 600 s horizon,
+    // so no detour gets there after it), and clear in the near window. The ranking of unclear routes reads risk alone; the plan
+    // still sets up a straight approach to W1 when that costs no risk.
+    let m = common::open_mission(vec![], &[[0.0, 400.0], [45.0, 400.0], [45.0, -150.0]]);
+    let field = Blobs(vec![Blob {
+        p0_m: [45.0, -150.0],
+        v_mps: [0.0, 0.0],
+        radius_m: 10.0,
+        sigma0_m: 5.0,
+        growth_mps: 0.0,
+    }]);
+    let stack = mission_stack(&m);
+    let state = AircraftState {
+        heading_rad: std::f64::consts::FRAC_PI_2,
+        ..state_at([0.0, 0.0], 100.0)
+    };
+    let req = |strategy| PlanRequest {
+        mission: &m,
+        aircraft: Aircraft {
+            speed_mps: 20.0,
+            turn_radius_m: 40.0,
+        },
+        stack: &stack,
+        current_index: 0,
+        state,
+        params: PlanParams {
+            strategy,
+            ..PlanParams::default()
+        }
+        .horizon_s(600.0),
+        seed: 7,
+    };
+    // The situation: the stack as given passes W1 wide and is unclear only far ahead.
+    let kept = plan(&req(planner::plan::Strategy::None), &field).unwrap();
+    let v = kept.verification;
+    assert_eq!((v.missed_waypoints, v.first_missed), (1, Some(1)), "{v:?}");
+    assert!(
+        v.near_peak_risk <= 0.05 && v.graded_peak_risk > 0.05,
+        "{v:?}"
+    );
+
+    let p = plan(&req(planner::plan::Strategy::Bisection), &field).unwrap();
+    assert_eq!(
+        p.outcome,
+        PlanOutcome::NoSafePath,
+        "W2 stays inside the blob: {:?} {:?}",
+        p.items,
+        p.verification
+    );
+    assert_eq!(p.verification.missed_waypoints, 0, "{:?}", p.items);
+    // One avoid point right before W1, 3 or 5 turn radii out: the set-up approach.
+    let w1 = p
+        .items
+        .iter()
+        .position(|i| i.mission_index == Some(1))
+        .unwrap();
+    let before = p.items[w1 - 1];
+    assert_eq!(before.kind, ItemKind::Avoid, "{:?}", p.items);
+    let out_m = dist(before.p_m, m.waypoints[1].p_m);
+    assert!(
+        (out_m - 120.0).abs() < 1e-6 || (out_m - 200.0).abs() < 1e-6,
+        "{out_m}"
+    );
+    // At no risk: read independently along the route at its straight-line arrival times,
+    // nothing before W2's neighbourhood is at risk.
+    let route: Vec<Point> = std::iter::once(state.p_m)
+        .chain(p.items.iter().map(|i| i.p_m))
+        .collect();
+    let mut t = 0.0;
+    for w in route.windows(2) {
+        let dt = dist(w[0], w[1]) / 20.0;
+        if dist(w[1], m.waypoints[2].p_m) > 1.0 {
+            let r = common::sampled_max(&field, w[0], w[1], t, t + dt);
+            assert!(r <= 0.05, "leg {w:?} reads {r}");
+        }
+        t += dt;
+    }
+}

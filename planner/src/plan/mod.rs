@@ -353,6 +353,16 @@ impl Judge<'_> {
     }
 }
 
+/// Whether `v`, a route that sets up the approach to a waypoint `rival` (unclear, clear
+/// in the near window) passes too wide, captures more at no risk: no hard violation, fewer
+/// missed waypoints, a clear near window and a graded peak no higher than `rival`'s.
+fn captures_at_no_risk(v: &Verification, rival: &Verification, safe_risk: f64) -> bool {
+    v.hard() == 0
+        && v.missed_waypoints < rival.missed_waypoints
+        && v.near_peak_risk <= safe_risk
+        && v.graded_peak_risk <= rival.graded_peak_risk + 1e-9
+}
+
 /// Where a manoeuvre from the aircraft (a hold, an escape) starts: the altitude it is
 /// flown at (the aircraft's, or the first item's when lower) and the routes to resume
 /// after it (the best so far, and the stack as flown when that differs).
@@ -686,6 +696,59 @@ pub fn plan_until(
             s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.detour,
         );
         timed_out |= judge.keep_best(cands, &mut best, &mut best_tail, &mut evaluations);
+    }
+    if p.strategy == Strategy::Bisection
+        && !best.is_clear(p.safe_risk)
+        && best.hard() == 0
+        && best.near_peak_risk <= p.safe_risk
+        && let Some(target) = best.first_missed
+        && !term.should_stop()
+    {
+        // The same, on a route unclear only beyond the near window (a far conflict the
+        // next plans revise): set up the approach when it costs no risk. The ranking of
+        // unclear routes reads risk alone, so without this an aircraft circling a waypoint
+        // inside its turn circle, with a conflict 15 s ahead, went on circling it until
+        // the autopilot gave it up (Webster Field, spline seed 206).
+        let alt = s.alt_m.min(best_tail[target].alt_m);
+        let mut cands = vec![base_tail.clone()];
+        cands.extend(reapproach_candidates(
+            s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.detour,
+        ));
+        let rival = best;
+        let mut pick: Option<(Verification, Vec<StackItem>)> = None;
+        for (k, cand) in cands.into_iter().enumerate() {
+            if term.should_stop() {
+                timed_out = true;
+                break;
+            }
+            if !keeps_fixed(&cand) {
+                continue;
+            }
+            let v = if k == 0 {
+                v_base
+            } else {
+                evaluations += 1;
+                verify(&cand)
+            };
+            if !captures_at_no_risk(&v, &rival, p.safe_risk) {
+                continue;
+            }
+            // The route being flown wins when it qualifies (stable plans).
+            if k == 0 {
+                pick = Some((v, cand));
+                break;
+            }
+            if pick
+                .as_ref()
+                .is_none_or(|(pv, _)| v.better_than(pv, p.safe_risk, p.danger_risk))
+            {
+                pick = Some((v, cand));
+            }
+        }
+        if let Some((v, cand)) = pick {
+            best = v;
+            best_tail = cand;
+        }
     }
     if best_tail != base_tail
         && v_base.is_clear(p.safe_risk)
