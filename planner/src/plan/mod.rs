@@ -353,9 +353,9 @@ impl Judge<'_> {
     }
 }
 
-/// Whether `v`, a route that sets up the approach to a waypoint `rival` (unclear, clear
-/// in the near window) passes too wide, captures more at no risk: no hard violation, fewer
-/// missed waypoints, a clear near window and a graded peak no higher than `rival`'s.
+/// Whether `v` captures more waypoints than `rival` (the best route: unclear, clear in the
+/// near window, passing a waypoint too wide) at no risk: no hard violation, fewer missed
+/// waypoints, a clear near window and a graded peak no higher than `rival`'s.
 fn captures_at_no_risk(v: &Verification, rival: &Verification, safe_risk: f64) -> bool {
     v.hard() == 0
         && v.missed_waypoints < rival.missed_waypoints
@@ -708,41 +708,34 @@ pub fn plan_until(
         // next plans revise): set up the approach when it costs no risk. The ranking of
         // unclear routes reads risk alone, so without this an aircraft circling a waypoint
         // inside its turn circle, with a conflict 15 s ahead, went on circling it until
-        // the autopilot gave it up (Webster Field, spline seed 206).
-        let alt = s.alt_m.min(best_tail[target].alt_m);
-        let mut cands = vec![base_tail.clone()];
-        cands.extend(reapproach_candidates(
-            s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.detour,
-        ));
+        // the autopilot gave it up (Webster Field, mixed spheres, seeds 28, 78 and 98).
         let rival = best;
-        let mut pick: Option<(Verification, Vec<StackItem>)> = None;
-        for (k, cand) in cands.into_iter().enumerate() {
-            if term.should_stop() {
-                timed_out = true;
-                break;
-            }
-            if !keeps_fixed(&cand) {
-                continue;
-            }
-            let v = if k == 0 {
-                v_base
-            } else {
+        // The route being flown wins when it qualifies (stable plans).
+        let mut pick = (keeps_fixed(&base_tail)
+            && captures_at_no_risk(&v_base, &rival, p.safe_risk))
+        .then(|| (v_base, base_tail.clone()));
+        if pick.is_none() {
+            let alt = s.alt_m.min(best_tail[target].alt_m);
+            let cands = reapproach_candidates(
+                s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.detour,
+            );
+            for cand in cands {
+                if term.should_stop() {
+                    timed_out = true;
+                    break;
+                }
+                if !keeps_fixed(&cand) {
+                    continue;
+                }
                 evaluations += 1;
-                verify(&cand)
-            };
-            if !captures_at_no_risk(&v, &rival, p.safe_risk) {
-                continue;
-            }
-            // The route being flown wins when it qualifies (stable plans).
-            if k == 0 {
-                pick = Some((v, cand));
-                break;
-            }
-            if pick
-                .as_ref()
-                .is_none_or(|(pv, _)| v.better_than(pv, p.safe_risk, p.danger_risk))
-            {
-                pick = Some((v, cand));
+                let v = verify(&cand);
+                if captures_at_no_risk(&v, &rival, p.safe_risk)
+                    && pick
+                        .as_ref()
+                        .is_none_or(|(pv, _)| v.better_than(pv, p.safe_risk, p.danger_risk))
+                {
+                    pick = Some((v, cand));
+                }
             }
         }
         if let Some((v, cand)) = pick {
