@@ -334,6 +334,24 @@ impl Judge<'_> {
         best_tail: &mut Vec<StackItem>,
         evaluations: &mut u64,
     ) -> bool {
+        self.each_eligible(cands, evaluations, |cand| {
+            if let Some(v) = (self.verify_to_beat)(&cand, best)
+                && v.better_than(best, self.p.safe_risk, self.p.danger_risk)
+            {
+                *best = v;
+                *best_tail = cand;
+            }
+        })
+    }
+
+    /// Hands `judge` each of `cands` that keeps every fixed item, counting it as an
+    /// evaluation, until the deadline. True when the deadline stopped it.
+    fn each_eligible(
+        &self,
+        cands: Vec<Vec<StackItem>>,
+        evaluations: &mut u64,
+        mut judge: impl FnMut(Vec<StackItem>),
+    ) -> bool {
         for cand in cands {
             if self.term.should_stop() {
                 return true;
@@ -342,12 +360,7 @@ impl Judge<'_> {
                 continue;
             }
             *evaluations += 1;
-            if let Some(v) = (self.verify_to_beat)(&cand, best)
-                && v.better_than(best, self.p.safe_risk, self.p.danger_risk)
-            {
-                *best = v;
-                *best_tail = cand;
-            }
+            judge(cand);
         }
         false
     }
@@ -684,6 +697,15 @@ pub fn plan_until(
             }
         }
     }
+    // Routes that set up a straight final approach to `tail[target]`, a waypoint the flown
+    // path passes too wide (crate::detour::reapproach_candidates), at the lower of the
+    // aircraft's and the waypoint's altitudes.
+    let approaches = |tail: &[StackItem], target: usize| {
+        let alt = s.alt_m.min(tail[target].alt_m);
+        reapproach_candidates(
+            s.p_m, tail, target, alt, turn_r, cylinders, &zones, &p.detour,
+        )
+    };
     if p.strategy == Strategy::Bisection
         && best.is_clear(p.safe_risk)
         && let Some(target) = best.first_missed
@@ -691,10 +713,7 @@ pub fn plan_until(
     {
         // A safe route whose flown path passes a waypoint too wide to capture it: set up a
         // straight final approach (crate::detour::reapproach_candidates).
-        let alt = s.alt_m.min(best_tail[target].alt_m);
-        let cands = reapproach_candidates(
-            s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.detour,
-        );
+        let cands = approaches(&best_tail, target);
         timed_out |= judge.keep_best(cands, &mut best, &mut best_tail, &mut evaluations);
     }
     if p.strategy == Strategy::Bisection
@@ -715,19 +734,8 @@ pub fn plan_until(
             && captures_at_no_risk(&v_base, &rival, p.safe_risk))
         .then(|| (v_base, base_tail.clone()));
         if pick.is_none() {
-            let alt = s.alt_m.min(best_tail[target].alt_m);
-            let cands = reapproach_candidates(
-                s.p_m, &best_tail, target, alt, turn_r, cylinders, &zones, &p.detour,
-            );
-            for cand in cands {
-                if term.should_stop() {
-                    timed_out = true;
-                    break;
-                }
-                if !keeps_fixed(&cand) {
-                    continue;
-                }
-                evaluations += 1;
+            let cands = approaches(&best_tail, target);
+            timed_out |= judge.each_eligible(cands, &mut evaluations, |cand| {
                 let v = verify(&cand);
                 if captures_at_no_risk(&v, &rival, p.safe_risk)
                     && pick
@@ -736,7 +744,7 @@ pub fn plan_until(
                 {
                     pick = Some((v, cand));
                 }
-            }
+            });
         }
         if let Some((v, cand)) = pick {
             best = v;
