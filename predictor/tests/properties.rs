@@ -4,7 +4,7 @@
 mod common;
 
 use common::{Behaviour, Generator};
-use predictor::{Predictor, PredictorConfig, RiskField, RiskMapConfig, Stage};
+use predictor::{Predictor, PredictorConfig, ReplayConfig, RiskField, RiskMapConfig, Stage};
 use proptest::prelude::*;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -261,10 +261,18 @@ fn an_out_and_back_obstacle_is_predicted_backward_along_its_own_track_after_turn
     let noise = Normal::new(0.0, 1.0).unwrap();
     let trials = 40u32;
     for h in [5.0, 12.0] {
-        let (mut hits, mut r_with, mut r_without) = (0, 0.0, 0.0);
+        let (mut hits, mut r_with, mut r_without, mut r_smooth) = (0, 0.0, 0.0, 0.0);
         for seed in 0..trials {
             let mut with = Predictor::new(PredictorConfig::default());
             let mut without = Predictor::new(PredictorConfig {
+                periodic: None,
+                replay: Some(ReplayConfig {
+                    smooth_window_s: 0.0,
+                    ..ReplayConfig::default()
+                }),
+                ..PredictorConfig::default()
+            });
+            let mut smooth = Predictor::new(PredictorConfig {
                 periodic: None,
                 ..PredictorConfig::default()
             });
@@ -280,6 +288,7 @@ fn an_out_and_back_obstacle_is_predicted_backward_along_its_own_track_after_turn
                 };
                 with.observe("0", o);
                 without.observe("0", o);
+                smooth.observe("0", o);
             }
             let lap = with.model("0").unwrap().lap;
             assert_eq!(
@@ -296,15 +305,19 @@ fn an_out_and_back_obstacle_is_predicted_backward_along_its_own_track_after_turn
             r_with += r95 / f64::from(trials);
             let s = without.sample_future("0", h, 1000, &mut rng).unwrap();
             r_without += disc95(&s).1 / f64::from(trials);
+            let s = smooth.sample_future("0", h, 1000, &mut rng).unwrap();
+            r_smooth += disc95(&s).1 / f64::from(trials);
         }
         let c = f64::from(hits) / f64::from(trials);
         eprintln!(
-            "out-and-back +{h} s: coverage {c}, r95 {r_with:.1} m (without lap search {r_without:.1} m)"
+            "out-and-back +{h} s: coverage {c}, r95 {r_with:.1} m (without lap search {r_without:.1} m, \
+             with its smooth extrapolation {r_smooth:.1} m)"
         );
         assert!(c >= 0.88, "+{h} s coverage {c}");
         assert!(
             r_with < 0.5 * r_without,
             "+{h} s: {r_with} m vs {r_without} m"
         );
+        assert!(r_with < r_smooth, "+{h} s: {r_with} m vs {r_smooth} m");
     }
 }

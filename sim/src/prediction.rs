@@ -9,6 +9,8 @@
 //! - stages 1-4 (forced) and the automatic stage: `n` positions sampled with
 //!   `Predictor::sample_future_with_stage` (resp. `sample_future`); the density is a Gaussian
 //!   kernel density over the samples (isotropic, Silverman bandwidth, at least 1 m);
+//! - `auto_no_lap`: the automatic stage's scores again, counted only while no lap of the
+//!   obstacle's tour is recognized (a spline tour before its first whole lap);
 //! - constant velocity: an isotropic Gaussian centred on the least-squares CV extrapolation
 //!   (3 s window) with `sigma = 2 m + 0.1 * speed * horizon` (a stated, not fitted, spread).
 //!
@@ -64,7 +66,7 @@ impl Default for PredictionParams {
 pub struct PredictionRow {
     /// Behaviour.
     pub behaviour: BehaviourKind,
-    /// `no_fly`, `random`, `advanced`, `memory`, `auto` or `cv`.
+    /// `no_fly`, `random`, `advanced`, `memory`, `auto`, `cv` or `auto_no_lap`.
     pub method: String,
     /// Horizon, seconds.
     pub horizon_s: f64,
@@ -130,7 +132,17 @@ fn family_of(b: BehaviourKind) -> Family {
     }
 }
 
-const METHODS: [&str; 6] = ["no_fly", "random", "advanced", "memory", "auto", "cv"];
+/// `auto_no_lap` is `auto` scored only while no lap of the obstacle's tour is recognized
+/// (a spline tour before its first lap; every other behaviour always).
+const METHODS: [&str; 7] = [
+    "no_fly",
+    "random",
+    "advanced",
+    "memory",
+    "auto",
+    "cv",
+    "auto_no_lap",
+];
 
 /// Runs the prediction report for `behaviours`.
 pub fn prediction_report(
@@ -199,6 +211,11 @@ pub fn prediction_report(
                                 acc[4][hi].0 += nll;
                                 acc[4][hi].1 += usize::from(cov);
                                 acc[4][hi].2 += 1;
+                                if pred.model(&id).is_some_and(|m| m.lap.is_none()) {
+                                    acc[6][hi].0 += nll;
+                                    acc[6][hi].1 += usize::from(cov);
+                                    acc[6][hi].2 += 1;
+                                }
                             }
                             let (nll, cov) = score_gaussian(cv.at(t), 2.0 + 0.1 * speed * h, truth);
                             acc[5][hi].0 += nll;
