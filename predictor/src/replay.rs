@@ -283,11 +283,13 @@ fn quad_at(obs: &[Observation], j: usize, window_s: f64, stationary_mps: f64) ->
     (q.c[0][1].hypot(q.c[1][1]) >= stationary_mps).then_some(q)
 }
 
-/// The track's position at time `u` (linear between observations), searching from `k`.
-fn track_at(obs: &[Observation], mut k: usize, end: usize, u: f64) -> [f64; 2] {
-    while k < end && obs[k + 1].t_s <= u {
-        k += 1;
+/// The track's position at time `u` (linear between observations, held at `end`), moving
+/// the cursor `k` forward to the observation at or before it.
+fn track_at(obs: &[Observation], k: &mut usize, end: usize, u: f64) -> [f64; 2] {
+    while *k < end && obs[*k + 1].t_s <= u {
+        *k += 1;
     }
+    let k = *k;
     if k < end {
         let (a, b) = (&obs[k], &obs[k + 1]);
         let f = ((u - a.t_s) / (b.t_s - a.t_s)).clamp(0.0, 1.0);
@@ -496,7 +498,8 @@ impl<'a> ReplayParticles<'a> {
                     continue;
                 }
                 let fa = self.frames[a].expect("anchors have frames");
-                let pa = track_at(obs, a, end, obs[a].t_s + h);
+                let mut k = a;
+                let pa = track_at(obs, &mut k, end, obs[a].t_s + h);
                 // Replay: the displacement after the anchor, turned onto the present heading.
                 let (s, c) = (-fa.heading_rad).sin_cos();
                 let (dx, dy) = (pa[0] - fa.p_m[0], pa[1] - fa.p_m[1]);
@@ -535,11 +538,8 @@ impl<'a> ReplayParticles<'a> {
         let end = self.run_end[a - self.base] as usize;
         let u = self.obs[a].t_s + e;
         let mut k = sm.cur as usize;
-        while k < end && self.obs[k + 1].t_s <= u {
-            k += 1;
-        }
+        let pa = track_at(self.obs, &mut k, end, u);
         sm.cur = k as u32;
-        let pa = track_at(self.obs, k, end, u);
         let qa = sm.quad.at(e);
         let (dx, dy) = (pa[0] - qa[0], pa[1] - qa[1]);
         let q = q_now.at(e);
@@ -619,20 +619,8 @@ impl<'a> ReplayParticles<'a> {
                 continue;
             }
             let mut k = self.cur[i] as usize;
-            while k < end && self.obs[k + 1].t_s <= u {
-                k += 1;
-            }
+            let q = track_at(self.obs, &mut k, end, u);
             self.cur[i] = k as u32;
-            let q = if k < end {
-                let (a, b) = (&self.obs[k], &self.obs[k + 1]);
-                let f = ((u - a.t_s) / (b.t_s - a.t_s)).clamp(0.0, 1.0);
-                [
-                    a.p_m[0] + (b.p_m[0] - a.p_m[0]) * f,
-                    a.p_m[1] + (b.p_m[1] - a.p_m[1]) * f,
-                ]
-            } else {
-                self.obs[end].p_m
-            };
             return self.place(i, q);
         }
     }
