@@ -12,10 +12,15 @@
 //! is a lap. The smallest such lag wins (the most recent lap; multiples of the period also
 //! match), refined to a tenth of the step. A straight flyer never matches (its positions
 //! never repeat); a random turner matches only by a coincidence the window makes unlikely.
+//! A turner that circles for a while matches its last circle within the window without
+//! flying a tour, so a repeat must also hold over the last [`PeriodicConfig::validate_s`]
+//! before it (as much of it as has a lap before it): the track there must match itself one
+//! period earlier within [`PeriodicConfig::max_rms_m`] RMS.
 //!
 //! The prediction `s` seconds ahead is the track at `t0 + s - k L` (the smallest `k` that
-//! lands inside the observed lap), spread by a timing jitter and a position noise that grow
-//! with `s` ([`Lap::sigma_m`]). The search is a pure function of the track and its newest
+//! lands inside the observed lap), spread across by half that validated RMS (the distance
+//! between two passes each carrying the observation noise is about twice the noise of one)
+//! and along by a timing jitter that grows lap by lap ([`Lap::sigma_m`], [`Lap::jitter_s`]). The search is a pure function of the track and its newest
 //! time, so a predictor fed batch by batch and one rebuilt from the same rows agree.
 //!
 //! Mirrored laps ([`LapKind::Mirror`]): a tour through two waypoints is the same periodic
@@ -57,6 +62,17 @@ pub struct PeriodicConfig {
     pub max_rms_m: f64,
     /// Largest gap between observations to interpolate across, seconds. Default 5.
     pub max_gap_s: f64,
+    /// How far back a repeat is checked beyond its signature, seconds: the track over the
+    /// last `validate_s` (as much of it as has a lap before it) must match itself one period
+    /// earlier within [`PeriodicConfig::max_rms_m`] RMS, and that RMS sets the lap's spread
+    /// ([`Lap::sigma_m`]). Default 60.
+    #[cfg_attr(feature = "serde", serde(default = "default_validate_s"))]
+    pub validate_s: f64,
+}
+
+#[cfg(feature = "serde")]
+fn default_validate_s() -> f64 {
+    PeriodicConfig::default().validate_s
 }
 
 impl Default for PeriodicConfig {
@@ -67,6 +83,7 @@ impl Default for PeriodicConfig {
             min_period_s: 20.0,
             max_rms_m: 6.0,
             max_gap_s: 5.0,
+            validate_s: 60.0,
         }
     }
 }
@@ -86,9 +103,13 @@ pub const MIRROR_MAX_RMS: f64 = 0.5;
 /// then leave its own path: in `sim/tests/mirror.rs` (20 Webster Field scenarios) such
 /// mirrors were 18 of 3239 mirrored seconds and 6-20 m off 10 s ahead, where true
 /// out-and-backs were 1 m off at the median. At 0.5 m/s the 95% disc (2.45 sigma) has a
-/// 20-25 m radius at +10 s, still a sixth of manoeuvre replay's; at 0.05 m/s, a lap's rate,
+/// 20-25 m radius at +10 s, still a sixth of manoeuvre replay's; at 0.05 m/s (a repeat's growth then),
 /// 16 of the 36 hairpin predictions there fell outside it.
 pub const MIRROR_SPREAD_MPS: f64 = 0.5;
+
+/// The least one-sigma spread per axis of a repeated lap, metres ([`Lap::sigma_m`]): a
+/// tour observed without noise still matches only to the precision of its refined period.
+pub const LAP_MIN_SIGMA_M: f64 = 0.5;
 
 /// How a lap maps the future onto the observed track.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -109,7 +130,8 @@ pub struct Lap {
     /// The period, seconds (for a mirror, the time between the newest observation and the
     /// earlier time at the same place: twice the time since the turn-back).
     pub period_s: f64,
-    /// RMS distance between the signature and the earlier lap, metres.
+    /// RMS distance between the track and the earlier lap, metres: for a repeat over the
+    /// validated stretch ([`PeriodicConfig::validate_s`]), for a mirror over the signature.
     pub rms_m: f64,
     /// The newest observation time the lap was found at, seconds.
     pub t0_s: f64,
@@ -132,21 +154,24 @@ impl Lap {
         }
     }
 
-    /// One-sigma position spread (per axis) `s` seconds ahead, metres: the match's RMS
-    /// plus 1 m, growing by 5 cm per second ahead for a repeat and by
-    /// [`MIRROR_SPREAD_MPS`] for a mirror.
+    /// One-sigma position spread (per axis) `s` seconds ahead, metres. A repeat: half the
+    /// match's RMS, at least [`LAP_MIN_SIGMA_M`], not growing (the RMS distance between two
+    /// passes, each with noise of sigma per axis, is about `2 sigma`; across the track the
+    /// prediction is one observed pass, so its error does not grow with the time ahead,
+    /// and along it the timing jitter grows). A mirror: the match's RMS plus 1 m, growing by
+    /// [`MIRROR_SPREAD_MPS`].
     pub fn sigma_m(&self, s: f64) -> f64 {
-        let grow = match self.kind {
-            LapKind::Repeat => 0.05,
-            LapKind::Mirror => MIRROR_SPREAD_MPS,
-        };
-        self.rms_m + 1.0 + grow * s.max(0.0)
+        match self.kind {
+            LapKind::Repeat => (0.5 * self.rms_m).max(LAP_MIN_SIGMA_M),
+            LapKind::Mirror => self.rms_m + 1.0 + MIRROR_SPREAD_MPS * s.max(0.0),
+        }
     }
 
-    /// One-sigma timing jitter `s` seconds ahead, seconds (the period is known to about
-    /// a tenth of the signature step; the error adds up lap after lap).
+    /// One-sigma timing jitter `s` seconds ahead, seconds: half a tenth of the signature
+    /// step (the precision the period is refined to) plus as much per lap back the
+    /// prediction reaches, since the error of the period adds up lap after lap.
     pub fn jitter_s(&self, s: f64) -> f64 {
-        0.1 + 0.1 * (s.max(0.0) / self.period_s).ceil()
+        0.05 + 0.05 * (s.max(0.0) / self.period_s).ceil()
     }
 
     /// The predicted position `s` seconds after `t0_s` before spreading, from `track`;
@@ -222,6 +247,37 @@ fn rms(
     Some((sum / sig.len() as f64).sqrt())
 }
 
+/// A repeat checked over the last [`PeriodicConfig::validate_s`] of the track (at least the
+/// signature; no further back than a whole lap after the track's first observation): the
+/// RMS distance between the track and itself one period earlier, at every signature step,
+/// must stay within [`PeriodicConfig::max_rms_m`], and becomes the lap's `rms_m`. The
+/// signature alone can match an obstacle that circles for a while without repeating (a
+/// turner with a bias): its circles drift apart over a longer stretch. It is also the
+/// better estimate of a true tour's spread: the lag was refined to fit the signature best,
+/// which the signature's own RMS therefore understates.
+fn validated(track: &Track, lap: Lap, first: f64, cfg: &PeriodicConfig) -> Option<Lap> {
+    let span = cfg.validate_s.min(lap.t0_s - lap.period_s - first).max(0.0);
+    let n = (span / cfg.step_s).floor() as usize;
+    let (mut sum, mut k) = (0.0, 0usize);
+    for j in 0..=n {
+        let t = lap.t0_s - j as f64 * cfg.step_s;
+        if let (Some(p), Some(q)) = (
+            track.position_at(t, cfg.max_gap_s),
+            track.position_at(t - lap.period_s, cfg.max_gap_s),
+        ) {
+            let d = dist(p, q);
+            sum += d * d;
+            k += 1;
+        }
+    }
+    let rms_m = if k > 0 {
+        (sum / k as f64).sqrt()
+    } else {
+        lap.rms_m
+    };
+    (rms_m <= cfg.max_rms_m).then_some(Lap { rms_m, ..lap })
+}
+
 /// Whether the flight around a mirror's turn-back (`t0 - lag / 2`) is an out-and-back on a
 /// line: positions the same time before and after the turn-back, at every step from it to
 /// the newest observation, within [`MIRROR_MAX_RMS`] RMS of each other (the signature alone
@@ -290,7 +346,9 @@ pub fn find_lap(track: &Track, cfg: &PeriodicConfig) -> Option<Lap> {
             kind,
         })
     };
-    found(LapKind::Repeat, cfg.min_period_s, t0 - first - span_sig).or_else(|| {
+    let repeat = found(LapKind::Repeat, cfg.min_period_s, t0 - first - span_sig)
+        .and_then(|lap| validated(track, lap, first, cfg));
+    repeat.or_else(|| {
         (dist(sig[0], sig[n_sig - 1]) >= MIRROR_MIN_CHORD * cfg.max_rms_m)
             .then(|| found(LapKind::Mirror, min_mirror_s, t0 - first))
             .flatten()
@@ -416,6 +474,60 @@ mod tests {
 
     /// An out-and-back on a line (a two-waypoint tour): 300 m either side of the origin
     /// every 120 s, turning back at t = 40 s (and at 100 s, 160 s, ...).
+    /// An obstacle that flew straight for a minute, then round a 60 s circle: 80 s into the
+    /// circle, its last 10 s (the signature) match the circle's first lap exactly, but the
+    /// minute before them does not repeat the flight one period earlier (a straight line
+    /// against the circle), so it is not taken for a periodic tour; checked against the
+    /// signature alone (`validate_s` 0), which takes it for one.
+    #[test]
+    fn a_lap_the_signature_matches_but_the_flight_before_it_does_not_is_not_a_repeat() {
+        let w = 2.0 * std::f64::consts::PI / 60.0;
+        let r = 150.0;
+        let circle = |s: f64| [r * (w * s).cos(), r * (w * s).sin()];
+        // Straight into the circle's start along its tangent (continuous at t = 60).
+        let flight = |t: f64| {
+            if t >= 60.0 {
+                circle(t - 60.0)
+            } else {
+                [r, r * w * (t - 60.0)]
+            }
+        };
+        let t = track(flight, 140.0, 5.0);
+        let signature_only = PeriodicConfig {
+            validate_s: 0.0,
+            ..PeriodicConfig::default()
+        };
+        let lap = find_lap(&t, &signature_only).expect("the signature matches");
+        assert_eq!(lap.kind, LapKind::Repeat);
+        assert!((lap.period_s - 60.0).abs() < 0.2, "{lap:?}");
+        assert_eq!(find_lap(&t, &PeriodicConfig::default()), None);
+        // Two whole laps later the minute before the signature repeats too: a lap again,
+        // with the RMS of that minute (the track is noiseless: near 0).
+        let t = track(flight, 200.0, 5.0);
+        let lap = find_lap(&t, &PeriodicConfig::default()).expect("a lap");
+        assert!(
+            (lap.period_s - 60.0).abs() < 0.2 && lap.rms_m < 0.5,
+            "{lap:?}"
+        );
+    }
+
+    /// A repeat's spread is half its RMS (two noisy passes apart), floored, and does not grow
+    /// with the time ahead; its timing jitter grows by a twentieth of a second a lap.
+    #[test]
+    fn a_repeats_spread_is_half_its_rms_and_its_jitter_grows_lap_by_lap() {
+        let lap = Lap {
+            period_s: 100.0,
+            rms_m: 2.0,
+            t0_s: 0.0,
+            kind: LapKind::Repeat,
+        };
+        assert_eq!((lap.sigma_m(0.0), lap.sigma_m(50.0)), (1.0, 1.0));
+        let exact = Lap { rms_m: 0.1, ..lap };
+        assert_eq!(exact.sigma_m(10.0), LAP_MIN_SIGMA_M);
+        assert!((lap.jitter_s(10.0) - 0.10).abs() < 1e-12);
+        assert!((lap.jitter_s(150.0) - 0.15).abs() < 1e-12);
+    }
+
     fn out_and_back(s: f64) -> [f64; 2] {
         let x = 300.0 * (2.0 * std::f64::consts::PI * (s - 10.0) / 120.0).sin();
         [x * 0.8, x * 0.6]
