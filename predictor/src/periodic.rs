@@ -358,7 +358,9 @@ pub fn find_lap(track: &Track, cfg: &PeriodicConfig) -> Option<Lap> {
 /// The smallest lag in `[min_lag, max_lag]` whose stretch matches the signature `sig` within
 /// [`PeriodicConfig::max_rms_m`], with its RMS distance. Candidates are the observations
 /// near the newest position, in runs; the best of each run (closest to the newest position)
-/// is refined to a tenth of the step and scored on the whole signature; newest first, so
+/// is refined to a tenth of the step, starting a whole step either side of it (where the
+/// tour is slow, noise can make the closest observation one more than a second from the
+/// lag), and scored on the whole signature; newest first, so
 /// the first run that matches is the most recent lap.
 fn search(
     track: &Track,
@@ -380,7 +382,7 @@ fn search(
         {
             let mut lag = t0 - tau;
             let mut e = rms(track, sig, lag, t0, cfg, kind).unwrap_or(f64::INFINITY);
-            let mut h = cfg.step_s * 0.5;
+            let mut h = cfg.step_s;
             while h >= cfg.step_s * 0.05 {
                 for cand in [lag - h, lag + h] {
                     if cand < min_lag || cand > max_lag {
