@@ -20,8 +20,9 @@
 //! The prediction `s` seconds ahead is the track at `t0 + s - k L` (the smallest `k` that
 //! lands inside the observed lap), spread across by half that validated RMS (the distance
 //! between two passes each carrying the observation noise is about twice the noise of one)
-//! and along by a timing jitter that grows lap by lap ([`Lap::sigma_m`], [`Lap::jitter_s`]). The search is a pure function of the track and its newest
-//! time, so a predictor fed batch by batch and one rebuilt from the same rows agree.
+//! and along by a timing jitter that grows lap by lap ([`Lap::sigma_m`], [`Lap::jitter_s`]).
+//! The search is a pure function of the track and its newest time, so a predictor fed batch
+//! by batch and one rebuilt from the same rows agree.
 //!
 //! Mirrored laps ([`LapKind::Mirror`]): a tour through two waypoints is the same periodic
 //! spline between two points, an out-and-back on a line, slowing to a stop at each end and
@@ -103,8 +104,8 @@ pub const MIRROR_MAX_RMS: f64 = 0.5;
 /// then leave its own path: in `sim/tests/mirror.rs` (20 Webster Field scenarios) such
 /// mirrors were 18 of 3239 mirrored seconds and 6-20 m off 10 s ahead, where true
 /// out-and-backs were 1 m off at the median. At 0.5 m/s the 95% disc (2.45 sigma) has a
-/// 20-25 m radius at +10 s, still a sixth of manoeuvre replay's; at 0.05 m/s (a repeat's growth then),
-/// 16 of the 36 hairpin predictions there fell outside it.
+/// 20-25 m radius at +10 s, still a sixth of manoeuvre replay's; at 0.05 m/s (a repeat's
+/// growth then), 16 of the 36 hairpin predictions there fell outside it.
 pub const MIRROR_SPREAD_MPS: f64 = 0.5;
 
 /// The least one-sigma spread per axis of a repeated lap, metres ([`Lap::sigma_m`]): a
