@@ -30,6 +30,30 @@ pub trait RiskField: Send + Sync {
         }
         worst
     }
+
+    /// `risk` for an aircraft whose altitude lies within `band_m` = `[lo, hi]` metres MSL
+    /// there: obstacles that cannot reach those altitudes are left out (a leg flown above
+    /// or below a sphere passes it). The default leaves nothing out (every obstacle counts
+    /// at every altitude), which is conservative.
+    fn risk_in_band(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2]) -> f64 {
+        let _ = band_m;
+        self.risk(p_m, t_s)
+    }
+
+    /// [`RiskField::segment_risk_bound`] for an aircraft within `band_m` (see
+    /// [`RiskField::risk_in_band`]); still a conservative bound of `risk_in_band` along
+    /// the segment. The default ignores the band.
+    fn segment_risk_bound_in_band(
+        &self,
+        a_m: [f64; 2],
+        b_m: [f64; 2],
+        t0_s: f64,
+        t1_s: f64,
+        band_m: [f64; 2],
+    ) -> f64 {
+        let _ = band_m;
+        self.segment_risk_bound(a_m, b_m, t0_s, t1_s)
+    }
 }
 
 /// The empty field: no obstacle anywhere, ever.
@@ -51,5 +75,18 @@ impl<F: RiskField + ?Sized> RiskField for &F {
     }
     fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
         (**self).segment_risk_bound(a_m, b_m, t0_s, t1_s)
+    }
+    fn risk_in_band(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2]) -> f64 {
+        (**self).risk_in_band(p_m, t_s, band_m)
+    }
+    fn segment_risk_bound_in_band(
+        &self,
+        a_m: [f64; 2],
+        b_m: [f64; 2],
+        t0_s: f64,
+        t1_s: f64,
+        band_m: [f64; 2],
+    ) -> f64 {
+        (**self).segment_risk_bound_in_band(a_m, b_m, t0_s, t1_s, band_m)
     }
 }

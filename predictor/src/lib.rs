@@ -34,6 +34,6 @@ pub use predictor::{
     RULES_MAX_OBSTACLE_SPEED_MPS,
 };
 pub use replay::ReplayConfig;
-pub use risk_map::{Layer, RiskMap, RiskMapConfig, RiskMapError, SliceView};
+pub use risk_map::{AltitudeView, Layer, RiskMap, RiskMapConfig, RiskMapError, SliceView};
 pub use stage::{Stage, StageChange, StageConfig};
 pub use track::{Observation, ObserveOutcome};

@@ -340,3 +340,87 @@ fn a_map_built_from_layers_of_other_maps_equals_a_one_thread_build_bit_for_bit()
         Err("a".to_owned())
     );
 }
+
+#[test]
+fn a_map_read_for_an_altitude_band_leaves_out_exactly_the_obstacles_out_of_its_reach() {
+    // Three flying obstacles whose clouds overlap near the middle of the grid and a young
+    // one (a NoFly disc); each but "c" is given an altitude reach.
+    let mut p = Predictor::new(PredictorConfig::default());
+    feed(&mut p, "a", Behaviour::Uniform { w: 0.2 }, 11, [0.0, 0.0]);
+    feed(&mut p, "b", Behaviour::Biased { w: 0.2 }, 12, [60.0, 0.0]);
+    feed(&mut p, "c", Behaviour::Straight, 13, [0.0, 60.0]);
+    p.observe("d", obs(64.0, [30.0, -20.0], 10.0));
+    assert_eq!(p.obstacle("d").unwrap().stage, Stage::NoFly);
+    let t0 = 65.0;
+    let full = p.build_risk_map(&cfg(), &[], t0).unwrap();
+    // "d" reaches no altitude the map is read for: left out of every read.
+    let view = full.altitude_view([
+        ("a", Some([0.0, 120.0])),
+        ("b", Some([200.0, 260.0])),
+        ("d", None),
+        ("not in the map", Some([0.0, 1.0])),
+    ]);
+    let without = |ids: &[&str]| {
+        let mut m = full.clone();
+        for id in ids {
+            m.remove_obstacle(id);
+        }
+        m
+    };
+    // (band, the same map without the obstacles out of that band's reach)
+    let cases = [
+        ([50.0, 100.0], without(&["b", "d"])),
+        ([210.0, 215.0], without(&["a", "d"])),
+        ([130.0, 190.0], without(&["a", "b", "d"])),
+        ([100.0, 205.0], without(&["d"])),
+    ];
+    let no_d = without(&["d"]);
+    let mut differs = 0;
+    for (band, expected) in &cases {
+        for k in 0..60 {
+            // Slice times and between them (the worse of the bracketing slices).
+            let t = t0 + f64::from(k) * 0.5;
+            for iy in -30..=30 {
+                for ix in -30..=30 {
+                    let q = [f64::from(ix) * 4.0 + 1.3, f64::from(iy) * 4.0 - 0.7];
+                    let got = view.risk_in_band(q, t, *band);
+                    let want = expected.risk(q, t);
+                    assert!(
+                        (got - want).abs() < 1e-5,
+                        "band {band:?} at {q:?}, t {t}: {got} against {want}"
+                    );
+                    assert!((view.risk(q, t) - no_d.risk(q, t)).abs() < 1e-5);
+                    if (got - full.risk(q, t)).abs() > 1e-3 {
+                        differs += 1;
+                    }
+                }
+            }
+        }
+        for (a, b) in [
+            ([-100.0, -50.0], [120.0, 40.0]),
+            ([10.0, 90.0], [40.0, -90.0]),
+        ] {
+            let (t_a, t_b) = (t0 + 3.0, t0 + 9.0);
+            let bound = view.segment_risk_bound_in_band(a, b, t_a, t_b, *band);
+            assert_eq!(
+                bound,
+                expected.segment_risk_bound(a, b, t_a, t_b),
+                "band {band:?}"
+            );
+            assert_eq!(
+                view.segment_risk_bound(a, b, t_a, t_b),
+                no_d.segment_risk_bound(a, b, t_a, t_b)
+            );
+            for i in 0..=50 {
+                let f = f64::from(i) / 50.0;
+                let q = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
+                assert!(view.risk_in_band(q, t_a + (t_b - t_a) * f, *band) <= bound + 1e-9);
+            }
+        }
+    }
+    // The obstacles left out did stand where the test reads.
+    assert!(
+        differs > 1000,
+        "only {differs} reads differ from the whole map"
+    );
+}

@@ -56,11 +56,15 @@
 //! rebuild give the same map.
 //!
 //! Files: `config.rs` the parameters, `splat.rs` the writes (an obstacle's particles into
-//! runs of counts), `query.rs` the reads (`risk`, slices, segment bounds).
+//! runs of counts), `query.rs` the reads (`risk`, slices, segment bounds), `banded.rs` the
+//! reads for one altitude band of the aircraft ([`AltitudeView`]).
 
+mod banded;
 mod config;
 mod query;
 mod splat;
+
+pub use banded::AltitudeView;
 
 pub use config::{RiskMapConfig, RiskMapError};
 

@@ -4,7 +4,6 @@
 use super::RiskMap;
 use super::SliceView;
 use crate::field::RiskField;
-use geom::dist_point_segment;
 
 impl RiskMap {
     #[inline]
@@ -54,7 +53,7 @@ impl RiskMap {
 
     /// Risk of slice `k` at `p_m` (grid and NoFly discs).
     #[inline]
-    fn slice_risk(&self, p_m: [f64; 2], k: usize) -> f64 {
+    pub(super) fn slice_risk(&self, p_m: [f64; 2], k: usize) -> f64 {
         let g = &self.geo[k];
         let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
         let fy = (p_m[1] - self.cfg.min_m[1]) * g.inv_cell;
@@ -74,7 +73,7 @@ impl RiskMap {
     /// The slices bracketing `t_s`: `(k, k)` at a slice time (or outside the horizon),
     /// else `(k, k + 1)` with `t_k < t_s < t_(k+1)`.
     #[inline]
-    fn bracket(&self, t_s: f64) -> (usize, usize) {
+    pub(super) fn bracket(&self, t_s: f64) -> (usize, usize) {
         let f = (t_s - self.t0_s) * self.inv_dt;
         if f <= 0.0 {
             return (0, 0);
@@ -107,37 +106,6 @@ impl RiskField for RiskMap {
     /// meets the segment's bounding box in a slice the segment's times map to; 1 if the
     /// segment comes within a NoFly disc.
     fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
-        let (ka, kb) = (
-            self.bracket(t0_s.min(t1_s)).0,
-            self.bracket(t0_s.max(t1_s)).1,
-        );
-        let (k0, k1) = (ka.min(kb), ka.max(kb));
-        let sb = [
-            a_m[0].min(b_m[0]),
-            a_m[1].min(b_m[1]),
-            a_m[0].max(b_m[0]),
-            a_m[1].max(b_m[1]),
-        ];
-        for d in &self.discs {
-            let r = d.r0_m + d.growth_mps * (self.slice_time(k1) - d.t_ref_s).max(0.0);
-            if dist_point_segment(d.c, a_m, b_m) <= r {
-                return 1.0;
-            }
-        }
-        let mut keep = 1.0f64;
-        for c in self.contrib.values() {
-            if c.filtered || c.disc.is_some() {
-                continue;
-            }
-            let mut peak: f32 = 0.0;
-            for k in k0..=k1 {
-                let bb = c.bbox_m[k];
-                if bb[0] <= sb[2] && sb[0] <= bb[2] && bb[1] <= sb[3] && sb[1] <= bb[3] {
-                    peak = peak.max(c.max_p[k]);
-                }
-            }
-            keep *= 1.0 - f64::from(peak);
-        }
-        (1.0 - keep).clamp(0.0, 1.0)
+        self.segment_bound_kept(a_m, b_m, t0_s, t1_s, |_| true)
     }
 }

@@ -1,0 +1,239 @@
+//! Reading the map for one altitude band of the aircraft ([`AltitudeView`]): the map holds
+//! every obstacle the route may meet, one grid for all of them; a leg flown above or below
+//! some of them reads the map without those (issue 10, "3-D obstacles": the aircraft's
+//! altitude along the plan decides whether it passes over or under a sphere).
+//!
+//! Where none of the obstacles left out covers the point in the slice read (its slice
+//! bounding box, or its NoFly disc), the answer is the grid's, unchanged; where one does,
+//! the product `prod(1 - p_i)` is recomputed over the obstacles kept, each obstacle's count
+//! at the cell looked up in its runs (a binary search within the slice).
+
+use super::{Contribution, RiskMap};
+use crate::field::RiskField;
+use geom::dist_point_segment;
+
+/// A [`RiskMap`] with each obstacle's altitude reach: [`RiskField::risk_in_band`] leaves
+/// out the obstacles whose reach misses the band asked about, and every read leaves out
+/// those that reach no altitude at all (as if removed from the map, without copying it).
+#[derive(Debug, Clone)]
+pub struct AltitudeView<'a> {
+    map: &'a RiskMap,
+    /// Obstacles with a reach, as `(contribution, [lowest, highest] altitude it can
+    /// touch)`, `None` for none; obstacles not listed reach every altitude.
+    reach: Vec<(&'a Contribution, Option<[f64; 2]>)>,
+}
+
+impl RiskMap {
+    /// This map read per altitude band: `reach` gives, per obstacle id, the lowest and
+    /// highest altitude (metres MSL) its sphere plus buffer can touch over the horizon, or
+    /// `None` when it can touch none the map is read for. Ids the map does not hold are
+    /// ignored; obstacles without a reach count at every altitude.
+    pub fn altitude_view<'a, I, S>(&'a self, reach: I) -> AltitudeView<'a>
+    where
+        I: IntoIterator<Item = (S, Option<[f64; 2]>)>,
+        S: AsRef<str>,
+    {
+        let reach = reach
+            .into_iter()
+            .filter_map(|(id, band)| {
+                self.contrib
+                    .get(id.as_ref())
+                    .filter(|c| !c.filtered)
+                    .map(|c| (c, band))
+            })
+            .collect();
+        AltitudeView { map: self, reach }
+    }
+
+    /// Obstacle `c`'s particle count at cell `cell` of slice `k` (0 outside its runs).
+    fn count_at(c: &Contribution, k: usize, cell: u32) -> u16 {
+        let (s0, s1) = (c.slice_start[k] as usize, c.slice_start[k + 1] as usize);
+        let runs = &c.runs[s0..s1];
+        let i = runs.partition_point(|r| r.idx <= cell);
+        if i == 0 {
+            return 0;
+        }
+        let r = runs[i - 1];
+        if cell < r.idx + r.len {
+            c.counts[(r.start + cell - r.idx) as usize]
+        } else {
+            0
+        }
+    }
+
+    /// Whether obstacle `c` puts any risk at `p_m` in slice `k` (its slice bounding box,
+    /// or its NoFly disc).
+    fn touches(&self, c: &Contribution, p_m: [f64; 2], k: usize) -> bool {
+        if let Some(d) = c.disc {
+            let r = d.r0_m + d.growth_mps * (self.slice_time(k) - d.t_ref_s).max(0.0);
+            let (dx, dy) = (p_m[0] - d.c[0], p_m[1] - d.c[1]);
+            return dx * dx + dy * dy <= r * r;
+        }
+        let bb = c.bbox_m[k];
+        bb[0] <= p_m[0] && p_m[0] <= bb[2] && bb[1] <= p_m[1] && p_m[1] <= bb[3]
+    }
+
+    /// Risk of slice `k` at `p_m` from the obstacles `keep` accepts (every unfiltered
+    /// obstacle otherwise in the map).
+    fn slice_risk_kept(
+        &self,
+        p_m: [f64; 2],
+        k: usize,
+        keep: impl Fn(&Contribution) -> bool,
+    ) -> f64 {
+        let g = &self.geo[k];
+        let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
+        let fy = (p_m[1] - self.cfg.min_m[1]) * g.inv_cell;
+        let cell = (fx >= 0.0 && fy >= 0.0)
+            .then(|| (fx as usize, fy as usize))
+            .filter(|&(ix, iy)| ix < g.nx && iy < g.ny)
+            .map(|(ix, iy)| (iy * g.nx + ix) as u32);
+        let mut q = 1.0f64;
+        for c in self.contrib.values() {
+            if c.filtered || !keep(c) || !self.touches(c, p_m, k) {
+                continue;
+            }
+            if c.disc.is_some() {
+                return 1.0;
+            }
+            if let Some(cell) = cell {
+                let n = Self::count_at(c, k, cell);
+                if n > 0 {
+                    q *= f64::from(self.omp_table[usize::from(n)]);
+                }
+            }
+        }
+        1.0 - q
+    }
+
+    /// [`RiskField::segment_risk_bound`] over the obstacles `keep` accepts.
+    pub(super) fn segment_bound_kept(
+        &self,
+        a_m: [f64; 2],
+        b_m: [f64; 2],
+        t0_s: f64,
+        t1_s: f64,
+        keep: impl Fn(&Contribution) -> bool,
+    ) -> f64 {
+        let (ka, kb) = (
+            self.bracket(t0_s.min(t1_s)).0,
+            self.bracket(t0_s.max(t1_s)).1,
+        );
+        let (k0, k1) = (ka.min(kb), ka.max(kb));
+        let sb = [
+            a_m[0].min(b_m[0]),
+            a_m[1].min(b_m[1]),
+            a_m[0].max(b_m[0]),
+            a_m[1].max(b_m[1]),
+        ];
+        let mut keep_p = 1.0f64;
+        for c in self.contrib.values() {
+            if c.filtered || !keep(c) {
+                continue;
+            }
+            if let Some(d) = c.disc {
+                let r = d.r0_m + d.growth_mps * (self.slice_time(k1) - d.t_ref_s).max(0.0);
+                if dist_point_segment(d.c, a_m, b_m) <= r {
+                    return 1.0;
+                }
+                continue;
+            }
+            let mut peak: f32 = 0.0;
+            for k in k0..=k1 {
+                let bb = c.bbox_m[k];
+                if bb[0] <= sb[2] && sb[0] <= bb[2] && bb[1] <= sb[3] && sb[1] <= bb[3] {
+                    peak = peak.max(c.max_p[k]);
+                }
+            }
+            keep_p *= 1.0 - f64::from(peak);
+        }
+        (1.0 - keep_p).clamp(0.0, 1.0)
+    }
+}
+
+/// Whether an obstacle of reach `reach` is left out of a read for `band_m` (`None`: a read
+/// for every altitude).
+fn misses(reach: Option<[f64; 2]>, band_m: Option<[f64; 2]>) -> bool {
+    match (reach, band_m) {
+        (None, _) => true,
+        (Some(r), Some(b)) => r[1] < b[0] || r[0] > b[1],
+        (Some(_), None) => false,
+    }
+}
+
+impl AltitudeView<'_> {
+    /// Whether `c` is one of the obstacles left out of a read for `band_m`.
+    fn left_out(&self, c: &Contribution, band_m: Option<[f64; 2]>) -> bool {
+        self.reach
+            .iter()
+            .any(|(o, r)| std::ptr::eq(*o, c) && misses(*r, band_m))
+    }
+
+    /// Risk of slice `k` at `p_m` for an aircraft within `band_m`.
+    fn slice_risk_in_band(&self, p_m: [f64; 2], k: usize, band_m: Option<[f64; 2]>) -> f64 {
+        let m = self.map;
+        let covered = self
+            .reach
+            .iter()
+            .any(|(c, r)| misses(*r, band_m) && m.touches(c, p_m, k));
+        if covered {
+            m.slice_risk_kept(p_m, k, |c| !self.left_out(c, band_m))
+        } else {
+            m.slice_risk(p_m, k)
+        }
+    }
+
+    /// The worse of the two slices bracketing `t_s`, as [`RiskMap`]'s `risk`.
+    fn read(&self, p_m: [f64; 2], t_s: f64, band_m: Option<[f64; 2]>) -> f64 {
+        let (k0, k1) = self.map.bracket(t_s);
+        let mut r = self.slice_risk_in_band(p_m, k0, band_m);
+        if k1 != k0 && r < 1.0 {
+            r = r.max(self.slice_risk_in_band(p_m, k1, band_m));
+        }
+        r.clamp(0.0, 1.0)
+    }
+
+    /// The segment bound over the obstacles a read for `band_m` keeps.
+    fn bound(
+        &self,
+        a_m: [f64; 2],
+        b_m: [f64; 2],
+        t0_s: f64,
+        t1_s: f64,
+        band_m: Option<[f64; 2]>,
+    ) -> f64 {
+        if self.reach.iter().all(|(_, r)| !misses(*r, band_m)) {
+            return self.map.segment_risk_bound(a_m, b_m, t0_s, t1_s);
+        }
+        self.map
+            .segment_bound_kept(a_m, b_m, t0_s, t1_s, |c| !self.left_out(c, band_m))
+    }
+}
+
+impl RiskField for AltitudeView<'_> {
+    /// The map without the obstacles that reach no altitude.
+    fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
+        self.read(p_m, t_s, None)
+    }
+
+    fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
+        self.bound(a_m, b_m, t0_s, t1_s, None)
+    }
+
+    /// The worse of the two bracketing slices, as [`RiskMap`]'s `risk`, without the
+    /// obstacles whose reach misses `band_m`.
+    fn risk_in_band(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2]) -> f64 {
+        self.read(p_m, t_s, Some(band_m))
+    }
+
+    fn segment_risk_bound_in_band(
+        &self,
+        a_m: [f64; 2],
+        b_m: [f64; 2],
+        t0_s: f64,
+        t1_s: f64,
+        band_m: [f64; 2],
+    ) -> f64 {
+        self.bound(a_m, b_m, t0_s, t1_s, Some(band_m))
+    }
+}
