@@ -198,7 +198,7 @@ fn threat(env: &LegEnv<'_>, a: Point, b: Point, t_a_s: f64) -> f64 {
     let l = dist(a, b);
     let t_b = (t_a_s + l / env.speed_mps).min(env.horizon_end_s);
     let f = ((t_b - t_a_s) * env.speed_mps / l.max(1e-9)).clamp(0.0, 1.0);
-    env.risk.segment_risk_bound(a, lerp(a, b, f), t_a_s, t_b)
+    env.segment_risk_bound(a, lerp(a, b, f), t_a_s, t_b)
 }
 
 fn blocking_cylinder<'c>(env: &'c LegEnv<'_>, a: Point, b: Point) -> Option<&'c Cylinder> {
@@ -261,7 +261,7 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
             if t > env.horizon_end_s {
                 break;
             }
-            let r = env.risk.risk(lerp(a, b, f), t);
+            let r = env.risk_at(lerp(a, b, f), t);
             ctx.out.evaluations += 1;
             if r > peak {
                 (peak, f_peak) = (r, f);
@@ -273,8 +273,8 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
             let mut clear_at = l;
             for j in 1..=PROBES {
                 let o = l * j as f64 / PROBES as f64;
-                let rl = env.risk.risk(add(p, scale(n, o)), t);
-                let rr = env.risk.risk(add(p, scale(n, -o)), t);
+                let rl = env.risk_at(add(p, scale(n, o)), t);
+                let rr = env.risk_at(add(p, scale(n, -o)), t);
                 ctx.out.evaluations += 2;
                 if rl.min(rr) <= 0.1 * peak {
                     clear_at = o;
@@ -438,7 +438,7 @@ fn score_sample<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, t_a: f64, zone_safe: 
             if ti > env.horizon_end_s {
                 break;
             }
-            exposure += env.risk.risk(lerp(p, q, i as f64 / n as f64), ti) * ds;
+            exposure += env.risk_at(lerp(p, q, i as f64 / n as f64), ti) * ds;
             evals += 1;
         }
         t += l / env.speed_mps;
@@ -491,6 +491,7 @@ mod tests {
             zones,
             cylinders: &[],
             alt_m: 50.0,
+            band_m: crate::cost::ALL_ALTITUDES,
             buffer_fraction: 0.2,
             speed_mps: 20.0,
             horizon_end_s: 1e9,

@@ -18,7 +18,10 @@
 //!   its radius of its centre): an obstacle whose observed altitude band, grown by its
 //!   radius, the map's buffer and [`VERTICAL_MARGIN_M`], does not reach the altitudes of
 //!   the route still to fly (the aircraft's and the remaining items') is taken out of the
-//!   map this plan uses; the aircraft passes over or under it.
+//!   map this plan uses; the aircraft passes over or under it. Within the route, each leg
+//!   reads the map for its own altitudes ([`predictor::AltitudeView`]: the altitudes
+//!   the aircraft may be at along it, [`crate::cost::leg_bands`]), so a sphere that only
+//!   another leg's altitudes reach does not stand in this leg's way.
 //! - The least predictable stage among the obstacles in the map sets the sample budget
 //!   ([`predictor::Stage::variability`]).
 //! - [`Replanned::dynamic`] says what dynamic risk the plan saw: each obstacle with its
@@ -258,9 +261,17 @@ pub fn live_map(
 /// Whether obstacle `o` can come within its radius plus `buffer_m` of altitudes
 /// `[lo_m, hi_m]` (see the module docs).
 pub fn reaches_altitudes(o: &ObstacleSummary, lo_m: f64, hi_m: f64, buffer_m: f64) -> bool {
+    let [a, b] = altitude_reach(o, buffer_m);
+    a <= hi_m && b >= lo_m
+}
+
+/// The lowest and highest altitude obstacle `o` can touch with its radius plus `buffer_m`
+/// within the horizon: its observed centre altitudes grown by both and
+/// [`VERTICAL_MARGIN_M`].
+pub fn altitude_reach(o: &ObstacleSummary, buffer_m: f64) -> [f64; 2] {
     let reach = o.last_observation.radius_m + buffer_m + VERTICAL_MARGIN_M;
     let [a, b] = o.alt_range_m;
-    a - reach <= hi_m && b + reach >= lo_m
+    [a - reach, b + reach]
 }
 
 fn seen(map: &RiskMap, obstacles: &[ObstacleSummary], dropped: &[String]) -> DynamicSeen {
@@ -269,7 +280,10 @@ fn seen(map: &RiskMap, obstacles: &[ObstacleSummary], dropped: &[String]) -> Dyn
     let obstacles = obstacles
         .iter()
         .map(|o| {
-            let hit = in_map.iter().find(|(id, _)| *id == o.id);
+            let hit = in_map
+                .iter()
+                .find(|(id, _)| *id == o.id)
+                .filter(|_| !dropped.contains(&o.id));
             if hit.is_some() {
                 let v = o.stage.variability();
                 var = Some(var.map_or(v, |a: f64| a.max(v)));
@@ -331,10 +345,16 @@ pub fn replan(
             .collect()
     };
     let built: RiskMap;
-    let (risk, dynamic): (&dyn RiskField, DynamicSeen) = match dynamic {
-        Dynamic::None => (&NoRisk, DynamicSeen::default()),
+    let summaries: Vec<ObstacleSummary>;
+    // The map the plan reads, with the obstacles whose altitudes it reads it for.
+    let (risk, dynamic, banded): (
+        &dyn RiskField,
+        DynamicSeen,
+        Option<(&RiskMap, &[ObstacleSummary])>,
+    ) = match dynamic {
+        Dynamic::None => (&NoRisk, DynamicSeen::default(), None),
         Dynamic::Predictor(predictor) => {
-            let summaries: Vec<ObstacleSummary> = predictor.obstacles().collect();
+            summaries = predictor.obstacles().collect();
             let dropped = out_of_reach(&summaries);
             match live_map(predictor, r.mission, cfg) {
                 Ok(Some(mut live)) => {
@@ -342,9 +362,10 @@ pub fn replan(
                         live.map.remove_obstacle(id);
                     }
                     built = live.map;
-                    (&built, seen(&built, &summaries, &dropped))
+                    let seen = seen(&built, &summaries, &dropped);
+                    (&built, seen, Some((&built, &summaries[..])))
                 }
-                Ok(None) => (&NoRisk, DynamicSeen::default()),
+                Ok(None) => (&NoRisk, DynamicSeen::default(), None),
                 Err(e) => return Err(PlanError::RiskMap(e.to_string())),
             }
         }
@@ -355,23 +376,38 @@ pub fn replan(
                 obstacles: Vec::new(),
                 variability: Some(1.0),
             },
+            None,
         ),
         Dynamic::Map { map, obstacles } => {
+            // The shared map is read without the obstacles out of the route's reach
+            // (the view below), not copied to remove them.
             let dropped: Vec<String> = out_of_reach(obstacles)
                 .into_iter()
                 .filter(|id| map.obstacles().any(|(m, _)| m == id))
                 .collect();
-            if dropped.is_empty() {
-                (map, seen(map, obstacles, &dropped))
-            } else {
-                let mut m = map.clone();
-                for id in &dropped {
-                    m.remove_obstacle(id);
-                }
-                built = m;
-                (&built, seen(&built, obstacles, &dropped))
-            }
+            (map, seen(map, obstacles, &dropped), Some((map, obstacles)))
         }
+    };
+    // Each leg reads the map for its own altitudes: a sphere out of their reach is passed
+    // over or under there, though other legs of the route meet it (crate::cost::leg_bands).
+    let view;
+    let risk: &dyn RiskField = match banded {
+        Some((map, obstacles)) => {
+            // Only obstacles that miss some of the route's altitudes can be left out of
+            // a leg (the others cost a query nothing).
+            view = map.altitude_view(
+                obstacles
+                    .iter()
+                    .map(|o| {
+                        let r = altitude_reach(o, buffer);
+                        (o.id.as_str(), r, r[0] <= hi && r[1] >= lo)
+                    })
+                    .filter(|&(_, r, reaches)| !reaches || r[0] > lo || r[1] < hi)
+                    .map(|(id, r, reaches)| (id, reaches.then_some(r))),
+            );
+            &view
+        }
+        None => risk,
     };
     let mut params = cfg.plan;
     params.strategy = r.strategy;

@@ -35,7 +35,7 @@
 //! ENU metres, metres MSL, seconds, m/s; `heading_rad` is a compass heading (clockwise
 //! from north), as in [`crate::AircraftState`].
 
-use crate::cost::LegEnv;
+use crate::cost::{LegEnv, leg_bands};
 use crate::geometry::{Point, dist, lerp, sub};
 use crate::mission::Cylinder;
 use crate::plan::AircraftState;
@@ -421,7 +421,7 @@ impl Acc<'_> {
         if t > env.horizon_end_s {
             return 0.0;
         }
-        let r = env.risk.risk(p, t);
+        let r = env.risk_at(p, t);
         self.out.peak_risk = self.out.peak_risk.max(r);
         if t <= self.near_end_s {
             self.out.near_peak_risk = self.out.near_peak_risk.max(r);
@@ -460,7 +460,7 @@ impl Acc<'_> {
     /// caller) the exposure; the reported peak and the near window stay within the horizon.
     fn risk_past_horizon(&mut self, env: &LegEnv<'_>, p: Point, t: f64, t_limit_s: f64) -> f64 {
         let t_read = env.horizon_end_s;
-        let r = env.risk.risk(p, t_read);
+        let r = env.risk_at(p, t_read);
         self.grade(r, p, t, t_limit_s.min(t_read));
         r
     }
@@ -552,7 +552,8 @@ pub fn verify_route_to_beat<'e>(
     let lost = |v: &Verification, polyline_done: bool| {
         rival.is_some_and(|r| v.cannot_beat(r.best, safe_risk, r.danger_risk, polyline_done))
     };
-    let env0 = env_at(state.alt_m);
+    let env0 = env_at(state.alt_m).in_band([state.alt_m, state.alt_m]);
+    let bands = leg_bands(state.p_m, state.alt_m, tail, speed_mps);
     let near_end_s = state.t_s + params.near_s;
     let far_span = env0.horizon_end_s - near_end_s;
     let mut acc = Acc {
@@ -581,7 +582,7 @@ pub fn verify_route_to_beat<'e>(
     let mut progress = Progress::new(state, speed_mps, delay_credit_s);
     for (i, it) in tail.iter().enumerate() {
         let alt = prev_alt.min(it.alt_m);
-        let env = env_at(alt);
+        let env = env_at(alt).in_band(bands[i]);
         let l = dist(prev, it.p_m);
         if !env.zones.contains_segment(prev, it.p_m) {
             acc.out.zone_exits += 1;
@@ -713,6 +714,7 @@ fn fly<'e>(
     let mut th = std::f64::consts::FRAC_PI_2 - state.heading_rad;
     let mut t = state.t_s;
     let mut alt_prev = state.alt_m;
+    let bands = leg_bands(state.p_m, state.alt_m, tail, speed_mps);
     let mut leg_from = state.p_m;
     let mut i = 0;
     let mut s_m = 0.0;
@@ -735,7 +737,7 @@ fn fly<'e>(
     while i < tail.len() && t <= horizon_end {
         let it = tail[i];
         let alt = alt_prev.min(it.alt_m);
-        let env = env_at(alt);
+        let env = env_at(alt).in_band(bands[i]);
         // Pursuit switches early by the fillet's tangent length toward the next item; L1
         // at the acceptance radius.
         if lead_for != i {
@@ -907,6 +909,7 @@ mod tests {
             zones: &zones,
             cylinders,
             alt_m,
+            band_m: crate::cost::ALL_ALTITUDES,
             buffer_fraction: 0.2,
             speed_mps: 20.0,
             horizon_end_s: 60.0,
@@ -1036,6 +1039,7 @@ mod tests {
                 zones: &zones,
                 cylinders: &cylinders,
                 alt_m,
+                band_m: crate::cost::ALL_ALTITUDES,
                 buffer_fraction: 0.2,
                 speed_mps: 20.0,
                 horizon_end_s: 60.0,
@@ -1085,6 +1089,7 @@ mod tests {
             zones,
             cylinders,
             alt_m,
+            band_m: crate::cost::ALL_ALTITUDES,
             buffer_fraction: 0.2,
             speed_mps: 20.0,
             horizon_end_s: 60.0,

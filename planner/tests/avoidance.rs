@@ -128,6 +128,90 @@ fn a_sphere_above_the_aircrafts_altitude_band_is_not_avoided() {
 }
 
 #[test]
+fn a_sphere_that_only_a_later_legs_altitudes_reach_is_passed_under_on_the_leg_below_it() {
+    // Waypoint 1 at 100 m, then a climb to waypoint 2 at 200 m. Two spheres of radius 20 m
+    // at 200 m cross the route northward at 5 m/s: "low" crosses the first leg (x = 300)
+    // as the aircraft gets there, "high" the climbing second leg (x = 700). The route as a
+    // whole reaches 200 m, so both are in the map; each leg reads it for its own
+    // altitudes (planner::cost::leg_bands).
+    let m = Mission {
+        fly_zones: vec![common::rect_zone([-200.0, -900.0], [1700.0, 900.0])],
+        cylinders: vec![],
+        waypoints: vec![
+            Waypoint {
+                p_m: [0.0, 0.0],
+                alt_m: 100.0,
+            },
+            Waypoint {
+                p_m: [400.0, 0.0],
+                alt_m: 100.0,
+            },
+            Waypoint {
+                p_m: [1400.0, 0.0],
+                alt_m: 200.0,
+            },
+        ],
+    };
+    let stack = mission_stack(&m);
+    let mut p = Predictor::new(PredictorConfig::default());
+    observe_mover(
+        &mut p,
+        "low",
+        [300.0, -125.0],
+        [0.0, 5.0],
+        200.0,
+        20.0,
+        10.0,
+    );
+    observe_mover(
+        &mut p,
+        "high",
+        [700.0, -225.0],
+        [0.0, 5.0],
+        200.0,
+        20.0,
+        10.0,
+    );
+    let cfg = ReplanConfig::default().horizon_s(60.0);
+    let out = replan(
+        &request(&m, &stack),
+        Dynamic::Predictor(&p),
+        &cfg,
+        &Termination::none(),
+    )
+    .unwrap();
+    assert!(out.dynamic.obstacles.iter().all(|o| !o.altitude_clear));
+    let items = &out.plan.items;
+    let wp1 = items
+        .iter()
+        .position(|i| i.kind != ItemKind::Avoid && i.p_m == [400.0, 0.0])
+        .expect("waypoint 1 kept");
+    assert!(
+        items[1..wp1].iter().all(|i| i.kind != ItemKind::Avoid),
+        "nothing goes round the sphere the first leg passes 80 m under: {items:?}"
+    );
+    assert!(
+        items[wp1..].iter().any(|i| i.kind == ItemKind::Avoid),
+        "the climbing leg goes round the sphere its altitudes reach: {items:?}"
+    );
+    // Against the spheres' own positions (the route flown at 20 m/s from t = 10): the
+    // first leg runs through the low sphere's footprint (under it), the rest clears the
+    // high one.
+    let s = east_state(10.0);
+    let rt = route(&s, items, out.plan.current_index);
+    let low = clearance(&rt[..2], 10.0, 20.0, 20.0, |t| [300.0, -125.0 + 5.0 * t]);
+    assert!(
+        low < -10.0,
+        "the first leg passes under the low sphere: {low:.1} m"
+    );
+    let high = clearance(&rt, 10.0, 20.0, 20.0, |t| [700.0, -225.0 + 5.0 * t]);
+    assert!(
+        high > 0.0,
+        "the route clears the high sphere by {high:.1} m"
+    );
+}
+
+#[test]
 fn a_plan_whose_first_leg_needs_a_turn_tighter_than_the_turn_radius_is_not_exact() {
     let m = leg_mission();
     // The aircraft flies east at (0, 0); an avoid item 30 m to its right (south), inside

@@ -460,6 +460,7 @@ pub fn plan_until(
         zones: &zones,
         cylinders,
         alt_m,
+        band_m: crate::cost::ALL_ALTITUDES,
         buffer_fraction: p.prepass.buffer_fraction,
         speed_mps: speed,
         horizon_end_s: horizon_end,
@@ -484,9 +485,11 @@ pub fn plan_until(
         let mut prev = s.p_m;
         let mut prev_alt = s.alt_m;
         let mut t = s.t_s;
-        for &(idx, item) in &fixed {
+        let fixed_items: Vec<StackItem> = fixed.iter().map(|&(_, it)| it).collect();
+        let bands = crate::cost::leg_bands(s.p_m, s.alt_m, &fixed_items, speed);
+        for (&(idx, item), &band) in fixed.iter().zip(&bands) {
             let alt = prev_alt.min(item.alt_m);
-            let env = env_at(alt);
+            let env = env_at(alt).in_band(band);
             let mut pre = prepass_leg(prev, item.p_m, alt, cylinders, &zones, &p.prepass);
             if pre.blocked {
                 // Complete around cylinders: the tangent graph finds a clear route when the

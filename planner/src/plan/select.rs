@@ -116,8 +116,9 @@ pub(super) fn route_risk<'e>(
         ..PathRisk::default()
     };
     let (mut prev, mut prev_alt, mut t) = (s.p_m, s.alt_m, s.t_s);
-    for it in tail {
-        let env = env_at(prev_alt.min(it.alt_m));
+    let bands = crate::cost::leg_bands(s.p_m, s.alt_m, tail, env_at(s.alt_m).speed_mps);
+    for (it, band) in tail.iter().zip(bands) {
+        let env = env_at(prev_alt.min(it.alt_m)).in_band(band);
         let r = env.path_risk(&[prev, it.p_m], t, step_m);
         total.peak = total.peak.max(r.peak);
         total.exposure_m += r.exposure_m;

@@ -3,7 +3,7 @@
 //! circles on (`planner::PlanParams::hold`: a verified wait), but planning
 //! against the spheres' true future (ground truth) instead of a prediction: the risk field
 //! is 1 inside a sphere (radius plus the same safety buffer as the predictor's map) whose
-//! true altitude at that time is within reach of the route's altitudes, else 0. A hit the
+//! true altitude at that time is within reach of the leg's altitudes, else 0. A hit the
 //! oracle takes is one the planner could not avoid even knowing the future.
 
 use predictor::RiskField;
@@ -20,19 +20,33 @@ struct Truth<'a> {
     alt_hi_m: f64,
 }
 
-impl RiskField for Truth<'_> {
-    fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
+impl Truth<'_> {
+    /// 1 inside a sphere (plus the buffer) that reaches altitudes `[lo, hi]` at `t_s`.
+    fn inside(&self, p_m: [f64; 2], t_s: f64, [lo, hi]: [f64; 2]) -> f64 {
         for s in self.spheres {
             let c = s.track.at(t_s);
             let r = s.radius_m + self.buffer_m;
-            if c[2] + r >= self.alt_lo_m
-                && c[2] - r <= self.alt_hi_m
-                && dist(p_m, [c[0], c[1]]) <= r
-            {
+            if c[2] + r >= lo && c[2] - r <= hi && dist(p_m, [c[0], c[1]]) <= r {
                 return 1.0;
             }
         }
         0.0
+    }
+}
+
+impl RiskField for Truth<'_> {
+    fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
+        self.inside(p_m, t_s, [self.alt_lo_m, self.alt_hi_m])
+    }
+
+    /// The leg's own altitudes (within the route's): a sphere the leg passes over or
+    /// under is not in its way, as for the prediction's map.
+    fn risk_in_band(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2]) -> f64 {
+        self.inside(
+            p_m,
+            t_s,
+            [band_m[0].max(self.alt_lo_m), band_m[1].min(self.alt_hi_m)],
+        )
     }
 }
 
