@@ -492,6 +492,7 @@ mod tests {
             cylinders: &[],
             alt_m: 50.0,
             band_m: crate::cost::ALL_ALTITUDES,
+            band_hint: predictor::NO_BAND_HINT,
             buffer_fraction: 0.2,
             speed_mps: 20.0,
             horizon_end_s: 1e9,

@@ -30,6 +30,9 @@ pub struct LegEnv<'a> {
     /// ([`leg_bands`]): a sphere out of their reach is passed over or under
     /// ([`RiskField::risk_in_band`]). [`ALL_ALTITUDES`] counts every obstacle.
     pub band_m: [f64; 2],
+    /// The risk field's summary of `band_m` ([`RiskField::band_hint`]), set by
+    /// [`LegEnv::in_band`]; [`predictor::NO_BAND_HINT`] works it out on every read.
+    pub band_hint: u64,
     /// Safety buffer fraction for the cylinders.
     pub buffer_fraction: f64,
     /// Ground speed, m/s.
@@ -83,13 +86,18 @@ pub fn leg_bands(
 impl LegEnv<'_> {
     /// This environment for a leg flown within `band_m` (see [`LegEnv::band_m`]).
     pub fn in_band(self, band_m: [f64; 2]) -> Self {
-        Self { band_m, ..self }
+        Self {
+            band_m,
+            band_hint: self.risk.band_hint(band_m),
+            ..self
+        }
     }
 
     /// The risk at `p_m` at `t_s` for this leg's altitudes.
     #[inline]
     pub fn risk_at(&self, p_m: Point, t_s: f64) -> f64 {
-        self.risk.risk_in_band(p_m, t_s, self.band_m)
+        self.risk
+            .risk_in_band_hinted(p_m, t_s, self.band_m, self.band_hint)
     }
 
     /// A conservative bound of [`LegEnv::risk_at`] along `a_m -> b_m` flown from `t0_s` to

@@ -40,6 +40,21 @@ pub trait RiskField: Send + Sync {
         self.risk(p_m, t_s)
     }
 
+    /// A summary of `band_m` that [`RiskField::risk_in_band_hinted`] reads faster with,
+    /// for many reads in one band (a leg's); [`NO_BAND_HINT`] when the field has none
+    /// (the default).
+    fn band_hint(&self, band_m: [f64; 2]) -> u64 {
+        let _ = band_m;
+        NO_BAND_HINT
+    }
+
+    /// [`RiskField::risk_in_band`], given `hint` = [`RiskField::band_hint`] of this field
+    /// for the same band (or [`NO_BAND_HINT`]). The default ignores the hint.
+    fn risk_in_band_hinted(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2], hint: u64) -> f64 {
+        let _ = hint;
+        self.risk_in_band(p_m, t_s, band_m)
+    }
+
     /// [`RiskField::segment_risk_bound`] for an aircraft within `band_m` (see
     /// [`RiskField::risk_in_band`]); still a conservative bound of `risk_in_band` along
     /// the segment. The default ignores the band.
@@ -55,6 +70,10 @@ pub trait RiskField: Send + Sync {
         self.segment_risk_bound(a_m, b_m, t0_s, t1_s)
     }
 }
+
+/// [`RiskField::band_hint`] of a field without hints: reads work the band out
+/// themselves.
+pub const NO_BAND_HINT: u64 = u64::MAX;
 
 /// The empty field: no obstacle anywhere, ever.
 #[derive(Debug, Clone, Copy, Default)]
@@ -78,6 +97,12 @@ impl<F: RiskField + ?Sized> RiskField for &F {
     }
     fn risk_in_band(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2]) -> f64 {
         (**self).risk_in_band(p_m, t_s, band_m)
+    }
+    fn band_hint(&self, band_m: [f64; 2]) -> u64 {
+        (**self).band_hint(band_m)
+    }
+    fn risk_in_band_hinted(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2], hint: u64) -> f64 {
+        (**self).risk_in_band_hinted(p_m, t_s, band_m, hint)
     }
     fn segment_risk_bound_in_band(
         &self,

@@ -26,7 +26,7 @@ pub mod stats;
 pub mod track;
 
 pub use estimate::{Estimates, EstimatorConfig};
-pub use field::{NoRisk, RiskField};
+pub use field::{NO_BAND_HINT, NoRisk, RiskField};
 pub use motion::{MotionModel, ReplayModel};
 pub use periodic::{Lap, LapKind, LapPoint, PeriodicConfig};
 pub use predictor::{

@@ -377,6 +377,7 @@ fn a_map_read_for_an_altitude_band_leaves_out_exactly_the_obstacles_out_of_its_r
     let no_d = without(&["d"]);
     let mut differs = 0;
     for (band, expected) in &cases {
+        let hint = view.band_hint(*band);
         for k in 0..60 {
             // Slice times and between them (the worse of the bracketing slices).
             let t = t0 + f64::from(k) * 0.5;
@@ -385,6 +386,8 @@ fn a_map_read_for_an_altitude_band_leaves_out_exactly_the_obstacles_out_of_its_r
                     let q = [f64::from(ix) * 4.0 + 1.3, f64::from(iy) * 4.0 - 0.7];
                     let got = view.risk_in_band(q, t, *band);
                     let want = expected.risk(q, t);
+                    // The same read through the band's hint (what a leg's reads use).
+                    assert_eq!(view.risk_in_band_hinted(q, t, *band, hint), got);
                     assert!(
                         (got - want).abs() < 1e-5,
                         "band {band:?} at {q:?}, t {t}: {got} against {want}"

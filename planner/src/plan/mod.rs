@@ -461,6 +461,7 @@ pub fn plan_until(
         cylinders,
         alt_m,
         band_m: crate::cost::ALL_ALTITUDES,
+        band_hint: predictor::NO_BAND_HINT,
         buffer_fraction: p.prepass.buffer_fraction,
         speed_mps: speed,
         horizon_end_s: horizon_end,

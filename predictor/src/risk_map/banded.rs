@@ -183,6 +183,20 @@ impl AltitudeView<'_> {
         }
     }
 
+    /// [`AltitudeView::slice_risk_in_band`] for the entries of `reach` whose bits are set
+    /// in `mask` left out.
+    fn slice_risk_masked(&self, p_m: [f64; 2], k: usize, mask: u64) -> f64 {
+        let m = self.map;
+        let covered = Bits(mask).any(|i| m.touches(self.reach[i].0, p_m, k));
+        if covered {
+            m.slice_risk_kept(p_m, k, |c| {
+                !Bits(mask).any(|i| std::ptr::eq(self.reach[i].0, c))
+            })
+        } else {
+            m.slice_risk(p_m, k)
+        }
+    }
+
     /// The worse of the two slices bracketing `t_s`, as [`RiskMap`]'s `risk`.
     fn read(&self, p_m: [f64; 2], t_s: f64, band_m: Option<[f64; 2]>) -> f64 {
         let (k0, k1) = self.map.bracket(t_s);
@@ -210,6 +224,21 @@ impl AltitudeView<'_> {
     }
 }
 
+/// The set bits of a mask, lowest first.
+struct Bits(u64);
+
+impl Iterator for Bits {
+    type Item = usize;
+    fn next(&mut self) -> Option<usize> {
+        if self.0 == 0 {
+            return None;
+        }
+        let i = self.0.trailing_zeros() as usize;
+        self.0 &= self.0 - 1;
+        Some(i)
+    }
+}
+
 impl RiskField for AltitudeView<'_> {
     /// The map without the obstacles that reach no altitude.
     fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
@@ -224,6 +253,36 @@ impl RiskField for AltitudeView<'_> {
     /// obstacles whose reach misses `band_m`.
     fn risk_in_band(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2]) -> f64 {
         self.read(p_m, t_s, Some(band_m))
+    }
+
+    /// Bit `i` set: the `i`-th obstacle with a reach is left out of reads for `band_m`
+    /// ([`crate::field::NO_BAND_HINT`] beyond 63 such obstacles).
+    fn band_hint(&self, band_m: [f64; 2]) -> u64 {
+        if self.reach.len() > 63 {
+            return crate::field::NO_BAND_HINT;
+        }
+        self.reach
+            .iter()
+            .enumerate()
+            .filter(|(_, (_, r))| misses(*r, Some(band_m)))
+            .fold(0, |m, (i, _)| m | (1 << i))
+    }
+
+    /// [`RiskField::risk_in_band`], with the obstacles left out named by `hint`: no
+    /// obstacle left out is one load per slice, as the map's own `risk`.
+    fn risk_in_band_hinted(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2], hint: u64) -> f64 {
+        if hint == crate::field::NO_BAND_HINT {
+            return self.risk_in_band(p_m, t_s, band_m);
+        }
+        if hint == 0 {
+            return self.map.risk(p_m, t_s);
+        }
+        let (k0, k1) = self.map.bracket(t_s);
+        let mut r = self.slice_risk_masked(p_m, k0, hint);
+        if k1 != k0 && r < 1.0 {
+            r = r.max(self.slice_risk_masked(p_m, k1, hint));
+        }
+        r.clamp(0.0, 1.0)
     }
 
     fn segment_risk_bound_in_band(
