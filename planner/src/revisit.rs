@@ -24,8 +24,13 @@
 //!   off (Webster Field, spline seed 55 with a 15-minute lead-in: 62 m, then 53 m).
 //! - Only on evidence: the track must reach back to when the item became the target
 //!   (within [`TRACK_GAP_S`]), and the closest approach is taken over the track and the
-//!   straight line ahead of its newest point along its newest segment (an aircraft still
-//!   closing in may yet capture it).
+//!   flight ahead of its newest point (an aircraft still closing in may yet capture it):
+//!   [`ANTICIPATE_S`] seconds turning at the turn radius from its newest heading toward the
+//!   item it now flies to, as the autopilot does once it has switched (with no turn radius,
+//!   the straight line ahead along its newest segment). The straight line alone took an
+//!   aircraft that switched 38 m short, heading past the waypoint as it turned away for
+//!   the next one, for a capture 26 m off; it went by 31.4 m off (Webster Field, spline
+//!   seed 193).
 //! - Pure: the same stack, index and track give the same answer.
 //!
 //! # Units
@@ -38,6 +43,10 @@ use crate::verify::JUDGE_CAPTURE_M;
 /// The track may start this long after the item became the target, seconds (a sample
 /// period and then some).
 pub const TRACK_GAP_S: f64 = 2.0;
+
+/// How long the flight ahead of the newest sample is followed for the closest approach,
+/// seconds ([`missed_waypoint`]).
+pub const ANTICIPATE_S: f64 = 6.0;
 
 /// Passes at a mission waypoint, the first included: a waypoint passed wide is flown
 /// again at most `MAX_PASSES - 1` times.
@@ -70,12 +79,14 @@ pub struct Missed {
 /// pursued at the last plan (`pursued`: its stack index and since when it has been the
 /// target, seconds on the track's clock) and `track` (time order, oldest first, from then
 /// on) shows the aircraft went by it farther than the judges' capture distance (see the
-/// module docs for every condition).
+/// module docs for every condition). `turn_radius_m` is the aircraft's (0: the flight
+/// ahead is taken straight).
 pub fn missed_waypoint(
     stack: &[StackItem],
     current_index: usize,
     pursued: (usize, f64),
     track: &[TrackPoint],
+    turn_radius_m: f64,
 ) -> Option<Missed> {
     let k = current_index.checked_sub(1)?;
     let item = stack.get(k)?;
@@ -93,12 +104,13 @@ pub fn missed_waypoint(
     if first.t_s > pursued.1 + TRACK_GAP_S {
         return None;
     }
-    // Flown, and ahead along the newest heading: an aircraft still closing in may yet come
-    // within the capture distance.
+    // Flown, and ahead: an aircraft still closing in may yet come within the capture
+    // distance.
+    let next = stack.get(current_index).map(|i| i.p_m);
     let closest_m = track
         .windows(2)
         .map(|w| distance_m(&w[0], &w[1], item, 1.0))
-        .fold(distance_m(before, last, item, f64::INFINITY), f64::min);
+        .fold(ahead_m(before, last, item, next, turn_radius_m), f64::min);
     (closest_m.is_finite() && closest_m > JUDGE_CAPTURE_M).then_some(Missed {
         stack_index: k,
         mission_index,
@@ -196,6 +208,41 @@ pub fn with_revisit(stack: &[StackItem], current_index: usize) -> Option<Vec<Sta
 
 /// Distance from `item` to the points `a + u (b - a)`, `u` in `[0, u_max]` (1: the segment,
 /// infinity: the ray from `a` through `b`), three dimensions.
+/// The closest the flight ahead of `last` comes to `item` within [`ANTICIPATE_S`]: from
+/// `last` at the speed and heading of `before -> last`, turning at `turn_radius_m` toward
+/// `next` (the item the autopilot now flies to) and then straight at it, at `last`'s
+/// altitude. Without a turn radius or a next item, the straight line ahead.
+fn ahead_m(
+    before: &TrackPoint,
+    last: &TrackPoint,
+    item: &StackItem,
+    next: Option<Point>,
+    turn_radius_m: f64,
+) -> f64 {
+    let (dx, dy) = (last.p_m[0] - before.p_m[0], last.p_m[1] - before.p_m[1]);
+    let dt = last.t_s - before.t_s;
+    let v = dx.hypot(dy) / dt;
+    let Some(next) = next.filter(|_| turn_radius_m > 0.0 && dt > 0.0 && v > 0.0) else {
+        return distance_m(before, last, item, f64::INFINITY);
+    };
+    let dz = item.alt_m - last.alt_m;
+    let dist = |p: Point| (p[0] - item.p_m[0]).hypot(p[1] - item.p_m[1]).hypot(dz);
+    const STEP_S: f64 = 0.1;
+    let w_max = v / turn_radius_m * STEP_S;
+    let mut th = dy.atan2(dx);
+    let mut p = last.p_m;
+    let mut best = dist(p);
+    for _ in 0..(ANTICIPATE_S / STEP_S).round() as usize {
+        let to = (next[1] - p[1]).atan2(next[0] - p[0]);
+        let err = (to - th + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        th += err.clamp(-w_max, w_max);
+        p = [p[0] + v * STEP_S * th.cos(), p[1] + v * STEP_S * th.sin()];
+        best = best.min(dist(p));
+    }
+    best
+}
+
 fn distance_m(a: &TrackPoint, b: &TrackPoint, item: &StackItem, u_max: f64) -> f64 {
     let ab = [b.p_m[0] - a.p_m[0], b.p_m[1] - a.p_m[1], b.alt_m - a.alt_m];
     let aw = [
@@ -245,10 +292,14 @@ mod tests {
     #[test]
     fn a_pass_wider_than_100_ft_is_missed_and_one_within_is_not() {
         let s = stack();
-        let wide = missed_waypoint(&s, 1, (0, 0.0), &pass(35.0, 60.0)).expect("35 m is a miss");
+        let wide =
+            missed_waypoint(&s, 1, (0, 0.0), &pass(35.0, 60.0), 0.0).expect("35 m is a miss");
         assert_eq!((wide.stack_index, wide.mission_index), (0, 0));
         assert!((wide.closest_m - 35.0).abs() < 1e-9);
-        assert_eq!(missed_waypoint(&s, 1, (0, 0.0), &pass(30.0, 60.0)), None);
+        assert_eq!(
+            missed_waypoint(&s, 1, (0, 0.0), &pass(30.0, 60.0), 0.0),
+            None
+        );
     }
 
     #[test]
@@ -259,7 +310,7 @@ mod tests {
         for p in &mut t {
             p.alt_m = 125.0;
         }
-        let m = missed_waypoint(&s, 1, (0, 0.0), &t).expect("32 m in 3-D is a miss");
+        let m = missed_waypoint(&s, 1, (0, 0.0), &t, 0.0).expect("32 m in 3-D is a miss");
         assert!((m.closest_m - 20f64.hypot(25.0)).abs() < 1e-9);
     }
 
@@ -271,13 +322,17 @@ mod tests {
             .into_iter()
             .filter(|p| p.t_s >= 4.0)
             .collect();
-        assert_eq!(missed_waypoint(&s, 1, (0, 0.0), &late), None);
+        assert_eq!(missed_waypoint(&s, 1, (0, 0.0), &late, 0.0), None);
         // Targeted 2.5 s in: the track starts within a sample gap of that, so it counts.
-        assert!(missed_waypoint(&s, 1, (0, 2.5), &late).is_some());
+        assert!(missed_waypoint(&s, 1, (0, 2.5), &late, 0.0).is_some());
         // Still closing in 35 m off the line: a miss ahead; 25 m off: it may yet capture.
-        let ahead = missed_waypoint(&s, 1, (0, 0.0), &pass(35.0, -40.0)).expect("a miss ahead");
+        let ahead =
+            missed_waypoint(&s, 1, (0, 0.0), &pass(35.0, -40.0), 0.0).expect("a miss ahead");
         assert!((ahead.closest_m - 35.0).abs() < 1e-9);
-        assert_eq!(missed_waypoint(&s, 1, (0, 0.0), &pass(25.0, -40.0)), None);
+        assert_eq!(
+            missed_waypoint(&s, 1, (0, 0.0), &pass(25.0, -40.0), 0.0),
+            None
+        );
         // A track that came within 100 ft before turning away: captured.
         let mut near_then_far = pass(20.0, 0.0);
         near_then_far.extend(pass(20.0, 0.0).iter().map(|p| TrackPoint {
@@ -285,44 +340,82 @@ mod tests {
             p_m: [-p.p_m[0], 300.0],
             alt_m: 100.0,
         }));
-        assert_eq!(missed_waypoint(&s, 1, (0, 0.0), &near_then_far), None);
+        assert_eq!(missed_waypoint(&s, 1, (0, 0.0), &near_then_far, 0.0), None);
         // No track, or one point.
-        assert_eq!(missed_waypoint(&s, 1, (0, 0.0), &[]), None);
+        assert_eq!(missed_waypoint(&s, 1, (0, 0.0), &[], 0.0), None);
         assert_eq!(
-            missed_waypoint(&s, 1, (0, 0.0), &pass(35.0, 60.0)[..1]),
+            missed_waypoint(&s, 1, (0, 0.0), &pass(35.0, 60.0)[..1], 0.0),
             None
         );
+    }
+
+    /// Northward along x = `x` up to y = `y_end`, at 100 m, 20 m/s, sampled at 5 Hz.
+    fn north(x: f64, y_end: f64) -> Vec<TrackPoint> {
+        (0..=100)
+            .map(f64::from)
+            .take_while(|k| -200.0 + 4.0 * k <= y_end + 1e-9)
+            .map(|k| TrackPoint {
+                t_s: 0.2 * k,
+                p_m: [x, -200.0 + 4.0 * k],
+                alt_m: 100.0,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_flight_ahead_turns_for_the_item_the_autopilot_has_switched_to() {
+        // The autopilot switched from waypoint 0 (at the origin) to the next item while the
+        // aircraft, heading north 27 m west of it, was still 39 m short. The straight line
+        // ahead passes 27 m off; turning (35 m radius) for an item to the west-south-west it
+        // comes no closer than 32 m: a miss (Webster Field, spline seed 193).
+        let away = vec![
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::mission(1, [-250.0, -100.0], 100.0),
+        ];
+        let track = north(-27.0, -28.0);
+        assert_eq!(missed_waypoint(&away, 1, (0, 0.0), &track, 0.0), None);
+        let m = missed_waypoint(&away, 1, (0, 0.0), &track, 35.0).expect("it turns away");
+        assert!(m.closest_m > 32.0 && m.closest_m <= 27f64.hypot(28.0), "{m:?}");
+        // 35 m west and 20 m short, the next item to the north-east: the straight line
+        // misses, the turn toward it (round a centre 20 m south of the waypoint) captures.
+        let toward = vec![
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::mission(1, [200.0, 200.0], 100.0),
+        ];
+        let track = north(-35.0, -20.0);
+        assert!(missed_waypoint(&toward, 1, (0, 0.0), &track, 0.0).is_some());
+        assert_eq!(missed_waypoint(&toward, 1, (0, 0.0), &track, 35.0), None);
     }
 
     #[test]
     fn only_a_mission_waypoint_just_passed_and_at_most_three_times() {
         let track = pass(35.0, 60.0);
         // Nothing passed yet.
-        assert_eq!(missed_waypoint(&stack(), 0, (0, 0.0), &track), None);
+        assert_eq!(missed_waypoint(&stack(), 0, (0, 0.0), &track, 0.0), None);
         // An avoid item just passed.
         let avoid = vec![
             StackItem::avoid([0.0, 0.0], 100.0),
             StackItem::mission(1, [1000.0, 0.0], 100.0),
         ];
-        assert_eq!(missed_waypoint(&avoid, 1, (0, 0.0), &track), None);
+        assert_eq!(missed_waypoint(&avoid, 1, (0, 0.0), &track, 0.0), None);
         // Not the item pursued at the last plan: passed before it.
-        assert_eq!(missed_waypoint(&stack(), 1, (1, 0.0), &track), None);
+        assert_eq!(missed_waypoint(&stack(), 1, (1, 0.0), &track, 0.0), None);
         // A revisit already planned (mission index 0 later in the stack): not again.
         let again = with_revisit(&stack(), 1).expect("an item to revisit");
         assert_eq!(again.len(), 3);
         assert_eq!(again[1], again[0]);
         assert_eq!(again[2], stack()[1]);
-        assert_eq!(missed_waypoint(&again, 1, (0, 0.0), &track), None);
+        assert_eq!(missed_waypoint(&again, 1, (0, 0.0), &track, 0.0), None);
         // The revisit passed wide too: flown a third time, and no more.
-        let second = missed_waypoint(&again, 2, (1, 0.0), &track).expect("a second revisit");
+        let second = missed_waypoint(&again, 2, (1, 0.0), &track, 0.0).expect("a second revisit");
         assert_eq!((second.stack_index, second.mission_index), (1, 0));
         let thrice = with_revisit(&again, 2).expect("a third pass");
         assert_eq!(thrice.len(), 4);
-        assert_eq!(missed_waypoint(&thrice, 3, (2, 0.0), &track), None);
+        assert_eq!(missed_waypoint(&thrice, 3, (2, 0.0), &track, 0.0), None);
         assert_eq!(MAX_PASSES, 3);
         // The index past the end names no item after it, and a revisit of the last item
         // appends it.
-        assert!(missed_waypoint(&stack(), 3, (2, 0.0), &track).is_none());
+        assert!(missed_waypoint(&stack(), 3, (2, 0.0), &track, 0.0).is_none());
         let last = with_revisit(&stack(), 2).expect("the last item");
         assert_eq!(last.len(), 3);
         assert_eq!(last[2], stack()[1]);

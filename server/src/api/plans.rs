@@ -433,7 +433,13 @@ async fn create_plan(
                 .await?;
             let (base, track) = enu_track(&mission, &stack, &track);
             if passed {
-                revisit = planner::missed_waypoint(&base, current_index, (k, since), &track);
+                revisit = planner::missed_waypoint(
+                    &base,
+                    current_index,
+                    (k, since),
+                    &track,
+                    turn_radius_m,
+                );
             } else {
                 captured = planner::captured_on_the_way(&base, current_index, (k, since), &track);
             }

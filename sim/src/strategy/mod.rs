@@ -269,7 +269,13 @@ impl TargetClock {
             return None;
         }
         let track = track_since(view, since);
-        planner::missed_waypoint(&view.stack.items, view.stack.current, (k, since), &track)
+        planner::missed_waypoint(
+            &view.stack.items,
+            view.stack.current,
+            (k, since),
+            &track,
+            view.aircraft.planner_aircraft().turn_radius_m,
+        )
     }
 
     /// The mission waypoint ahead that `view`'s aircraft captured on its way to an avoid
