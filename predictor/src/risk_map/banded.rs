@@ -199,12 +199,8 @@ impl AltitudeView<'_> {
 
     /// The worse of the two slices bracketing `t_s`, as [`RiskMap`]'s `risk`.
     fn read(&self, p_m: [f64; 2], t_s: f64, band_m: Option<[f64; 2]>) -> f64 {
-        let (k0, k1) = self.map.bracket(t_s);
-        let mut r = self.slice_risk_in_band(p_m, k0, band_m);
-        if k1 != k0 && r < 1.0 {
-            r = r.max(self.slice_risk_in_band(p_m, k1, band_m));
-        }
-        r.clamp(0.0, 1.0)
+        self.map
+            .worse_of_bracket(t_s, |k| self.slice_risk_in_band(p_m, k, band_m))
     }
 
     /// The segment bound over the obstacles a read for `band_m` keeps.
@@ -277,12 +273,8 @@ impl RiskField for AltitudeView<'_> {
         if hint == 0 {
             return self.map.risk(p_m, t_s);
         }
-        let (k0, k1) = self.map.bracket(t_s);
-        let mut r = self.slice_risk_masked(p_m, k0, hint);
-        if k1 != k0 && r < 1.0 {
-            r = r.max(self.slice_risk_masked(p_m, k1, hint));
-        }
-        r.clamp(0.0, 1.0)
+        self.map
+            .worse_of_bracket(t_s, |k| self.slice_risk_masked(p_m, k, hint))
     }
 
     fn segment_risk_bound_in_band(

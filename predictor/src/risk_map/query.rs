@@ -70,6 +70,18 @@ impl RiskMap {
         r
     }
 
+    /// The worse of `slice_risk(k)` over the slices bracketing `t_s` (the second read only
+    /// while the first is under 1), within `[0, 1]`.
+    #[inline]
+    pub(super) fn worse_of_bracket(&self, t_s: f64, slice_risk: impl Fn(usize) -> f64) -> f64 {
+        let (k0, k1) = self.bracket(t_s);
+        let mut r = slice_risk(k0);
+        if k1 != k0 && r < 1.0 {
+            r = r.max(slice_risk(k1));
+        }
+        r.clamp(0.0, 1.0)
+    }
+
     /// The slices bracketing `t_s`: `(k, k)` at a slice time (or outside the horizon),
     /// else `(k, k + 1)` with `t_k < t_s < t_(k+1)`.
     #[inline]
@@ -94,12 +106,7 @@ impl RiskField for RiskMap {
     /// a 1 s slice, more than the buffer: reading the nearest slice alone could miss it).
     #[inline]
     fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
-        let (k0, k1) = self.bracket(t_s);
-        let mut r = self.slice_risk(p_m, k0);
-        if k1 != k0 && r < 1.0 {
-            r = r.max(self.slice_risk(p_m, k1));
-        }
-        r.clamp(0.0, 1.0)
+        self.worse_of_bracket(t_s, |k| self.slice_risk(p_m, k))
     }
 
     /// Conservative: `1 - prod(1 - peak_i)` over every obstacle whose slice bounding box
