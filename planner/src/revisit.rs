@@ -375,7 +375,10 @@ mod tests {
         let track = north(-27.0, -28.0);
         assert_eq!(missed_waypoint(&away, 1, (0, 0.0), &track, 0.0), None);
         let m = missed_waypoint(&away, 1, (0, 0.0), &track, 35.0).expect("it turns away");
-        assert!(m.closest_m > 32.0 && m.closest_m <= 27f64.hypot(28.0), "{m:?}");
+        assert!(
+            m.closest_m > 32.0 && m.closest_m <= 27f64.hypot(28.0),
+            "{m:?}"
+        );
         // 35 m west and 20 m short, the next item to the north-east: the straight line
         // misses, the turn toward it (round a centre 20 m south of the waypoint) captures.
         let toward = vec![
