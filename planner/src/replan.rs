@@ -17,8 +17,9 @@
 //! - 3-D (DESIGN.md "Frames, units, time": a sphere matters if the leg's altitude is within
 //!   its radius of its centre): an obstacle whose observed altitude band, grown by its
 //!   radius, the map's buffer and [`VERTICAL_MARGIN_M`], does not reach the altitudes of
-//!   the route still to fly (the aircraft's and the remaining items') is taken out of the
-//!   map this plan uses; the aircraft passes over or under it. Within the route, each leg
+//!   the route still to fly (the aircraft's and the remaining items') is left out of
+//!   every read of the map this plan makes (removed from a map built here, read around in
+//!   a shared one); the aircraft passes over or under it. Within the route, each leg
 //!   reads the map for its own altitudes ([`predictor::AltitudeView`]: the altitudes
 //!   the aircraft may be at along it, [`crate::cost::leg_bands`]), so a sphere that only
 //!   another leg's altitudes reach does not stand in this leg's way.
