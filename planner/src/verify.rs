@@ -654,6 +654,7 @@ pub fn verify_route_to_beat<'e>(
             env_at,
             state,
             tail,
+            &bands,
             speed_mps,
             turn_radius_m,
             step,
@@ -689,13 +690,15 @@ enum Guidance {
 }
 
 /// Simulates a flown path (`guidance` at bounded turn rate) and checks it up to
-/// `horizon_end` (cylinders and risk).
+/// `horizon_end` (cylinders and risk), leg `i` read within `bands[i]` (the polyline's,
+/// [`leg_bands`]).
 #[allow(clippy::too_many_arguments)]
 fn fly<'e>(
     acc: &mut Acc<'_>,
     env_at: &impl EnvAt<'e>,
     state: &AircraftState,
     tail: &[StackItem],
+    bands: &[[f64; 2]],
     speed_mps: f64,
     turn_radius_m: f64,
     step: f64,
@@ -714,7 +717,6 @@ fn fly<'e>(
     let mut th = std::f64::consts::FRAC_PI_2 - state.heading_rad;
     let mut t = state.t_s;
     let mut alt_prev = state.alt_m;
-    let bands = leg_bands(state.p_m, state.alt_m, tail, speed_mps);
     let mut leg_from = state.p_m;
     let mut i = 0;
     let mut s_m = 0.0;

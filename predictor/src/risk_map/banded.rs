@@ -12,6 +12,10 @@ use super::{Contribution, RiskMap};
 use crate::field::RiskField;
 use geom::dist_point_segment;
 
+/// Obstacles with a reach an [`AltitudeView`] keeps: one bit each of a 64-bit mask, never
+/// all of them ([`crate::field::NO_BAND_HINT`]).
+pub const MAX_REACH: usize = 63;
+
 /// A [`RiskMap`] with each obstacle's altitude reach: [`RiskField::risk_in_band`] leaves
 /// out the obstacles whose reach misses the band asked about, and every read leaves out
 /// those that reach no altitude at all (as if removed from the map, without copying it).
@@ -27,7 +31,8 @@ impl RiskMap {
     /// This map read per altitude band: `reach` gives, per obstacle id, the lowest and
     /// highest altitude (metres MSL) its sphere plus buffer can touch over the horizon, or
     /// `None` when it can touch none the map is read for. Ids the map does not hold are
-    /// ignored; obstacles without a reach count at every altitude.
+    /// ignored; obstacles without a reach, and those after the first [`MAX_REACH`] with
+    /// one, count at every altitude (conservative).
     pub fn altitude_view<'a, I, S>(&'a self, reach: I) -> AltitudeView<'a>
     where
         I: IntoIterator<Item = (S, Option<[f64; 2]>)>,
@@ -41,6 +46,7 @@ impl RiskMap {
                     .filter(|c| !c.filtered)
                     .map(|c| (c, band))
             })
+            .take(MAX_REACH)
             .collect();
         AltitudeView { map: self, reach }
     }
@@ -162,61 +168,48 @@ fn misses(reach: Option<[f64; 2]>, band_m: Option<[f64; 2]>) -> bool {
 }
 
 impl AltitudeView<'_> {
-    /// Whether `c` is one of the obstacles left out of a read for `band_m`.
-    fn left_out(&self, c: &Contribution, band_m: Option<[f64; 2]>) -> bool {
+    /// The entries of `reach` left out of a read for `band_m` (`None`: a read for every
+    /// altitude), bit `i` for entry `i`.
+    fn mask(&self, band_m: Option<[f64; 2]>) -> u64 {
         self.reach
             .iter()
-            .any(|(o, r)| std::ptr::eq(*o, c) && misses(*r, band_m))
+            .enumerate()
+            .filter(|(_, (_, r))| misses(*r, band_m))
+            .fold(0, |m, (i, _)| m | (1 << i))
     }
 
-    /// Risk of slice `k` at `p_m` for an aircraft within `band_m`.
-    fn slice_risk_in_band(&self, p_m: [f64; 2], k: usize, band_m: Option<[f64; 2]>) -> f64 {
-        let m = self.map;
-        let covered = self
-            .reach
-            .iter()
-            .any(|(c, r)| misses(*r, band_m) && m.touches(c, p_m, k));
-        if covered {
-            m.slice_risk_kept(p_m, k, |c| !self.left_out(c, band_m))
-        } else {
-            m.slice_risk(p_m, k)
-        }
+    /// Whether a read with `mask` keeps obstacle `c`.
+    fn keeps(&self, mask: u64, c: &Contribution) -> bool {
+        !Bits(mask).any(|i| std::ptr::eq(self.reach[i].0, c))
     }
 
-    /// [`AltitudeView::slice_risk_in_band`] for the entries of `reach` whose bits are set
-    /// in `mask` left out.
+    /// Risk of slice `k` at `p_m` without the entries of `mask`.
     fn slice_risk_masked(&self, p_m: [f64; 2], k: usize, mask: u64) -> f64 {
         let m = self.map;
-        let covered = Bits(mask).any(|i| m.touches(self.reach[i].0, p_m, k));
-        if covered {
-            m.slice_risk_kept(p_m, k, |c| {
-                !Bits(mask).any(|i| std::ptr::eq(self.reach[i].0, c))
-            })
+        if Bits(mask).any(|i| m.touches(self.reach[i].0, p_m, k)) {
+            m.slice_risk_kept(p_m, k, |c| self.keeps(mask, c))
         } else {
             m.slice_risk(p_m, k)
         }
     }
 
-    /// The worse of the two slices bracketing `t_s`, as [`RiskMap`]'s `risk`.
-    fn read(&self, p_m: [f64; 2], t_s: f64, band_m: Option<[f64; 2]>) -> f64 {
+    /// The worse of the two slices bracketing `t_s`, as [`RiskMap`]'s `risk`, without the
+    /// entries of `mask` (none: the map's own read, one load per slice).
+    fn read(&self, p_m: [f64; 2], t_s: f64, mask: u64) -> f64 {
+        if mask == 0 {
+            return self.map.risk(p_m, t_s);
+        }
         self.map
-            .worse_of_bracket(t_s, |k| self.slice_risk_in_band(p_m, k, band_m))
+            .worse_of_bracket(t_s, |k| self.slice_risk_masked(p_m, k, mask))
     }
 
-    /// The segment bound over the obstacles a read for `band_m` keeps.
-    fn bound(
-        &self,
-        a_m: [f64; 2],
-        b_m: [f64; 2],
-        t0_s: f64,
-        t1_s: f64,
-        band_m: Option<[f64; 2]>,
-    ) -> f64 {
-        if self.reach.iter().all(|(_, r)| !misses(*r, band_m)) {
+    /// The segment bound without the entries of `mask`.
+    fn bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64, mask: u64) -> f64 {
+        if mask == 0 {
             return self.map.segment_risk_bound(a_m, b_m, t0_s, t1_s);
         }
         self.map
-            .segment_bound_kept(a_m, b_m, t0_s, t1_s, |c| !self.left_out(c, band_m))
+            .segment_bound_kept(a_m, b_m, t0_s, t1_s, |c| self.keeps(mask, c))
     }
 }
 
@@ -238,43 +231,30 @@ impl Iterator for Bits {
 impl RiskField for AltitudeView<'_> {
     /// The map without the obstacles that reach no altitude.
     fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
-        self.read(p_m, t_s, None)
+        self.read(p_m, t_s, self.mask(None))
     }
 
     fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
-        self.bound(a_m, b_m, t0_s, t1_s, None)
+        self.bound(a_m, b_m, t0_s, t1_s, self.mask(None))
     }
 
     /// The worse of the two bracketing slices, as [`RiskMap`]'s `risk`, without the
     /// obstacles whose reach misses `band_m`.
     fn risk_in_band(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2]) -> f64 {
-        self.read(p_m, t_s, Some(band_m))
+        self.read(p_m, t_s, self.mask(Some(band_m)))
     }
 
-    /// Bit `i` set: the `i`-th obstacle with a reach is left out of reads for `band_m`
-    /// ([`crate::field::NO_BAND_HINT`] beyond 63 such obstacles).
+    /// Bit `i` set: the `i`-th obstacle with a reach is left out of reads for `band_m`.
     fn band_hint(&self, band_m: [f64; 2]) -> u64 {
-        if self.reach.len() > 63 {
-            return crate::field::NO_BAND_HINT;
-        }
-        self.reach
-            .iter()
-            .enumerate()
-            .filter(|(_, (_, r))| misses(*r, Some(band_m)))
-            .fold(0, |m, (i, _)| m | (1 << i))
+        self.mask(Some(band_m))
     }
 
-    /// [`RiskField::risk_in_band`], with the obstacles left out named by `hint`: no
-    /// obstacle left out is one load per slice, as the map's own `risk`.
+    /// [`RiskField::risk_in_band`], with the obstacles left out named by `hint`.
     fn risk_in_band_hinted(&self, p_m: [f64; 2], t_s: f64, band_m: [f64; 2], hint: u64) -> f64 {
         if hint == crate::field::NO_BAND_HINT {
             return self.risk_in_band(p_m, t_s, band_m);
         }
-        if hint == 0 {
-            return self.map.risk(p_m, t_s);
-        }
-        self.map
-            .worse_of_bracket(t_s, |k| self.slice_risk_masked(p_m, k, hint))
+        self.read(p_m, t_s, hint)
     }
 
     fn segment_risk_bound_in_band(
@@ -285,6 +265,6 @@ impl RiskField for AltitudeView<'_> {
         t1_s: f64,
         band_m: [f64; 2],
     ) -> f64 {
-        self.bound(a_m, b_m, t0_s, t1_s, Some(band_m))
+        self.bound(a_m, b_m, t0_s, t1_s, self.mask(Some(band_m)))
     }
 }
