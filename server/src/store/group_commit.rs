@@ -341,6 +341,9 @@ impl Store {
         batches: &[NewBatch<'_>],
         posts: &[NewTelemetry<'_>],
     ) -> Result<GroupAnswers, sqlx::Error> {
+        if posts.is_empty() && self.takes_script(batches) {
+            return Ok((self.commit_script(batches).await?, Vec::new()));
+        }
         let mut tx = self.write.begin().await?;
         let stored = self.batches_in(&mut tx, batches).await?;
         // Whether each batch's mission exists is known now: no need to ask again.
@@ -615,6 +618,154 @@ mod tests {
             store.observation_seq("webster").await.expect("seq"),
             Some(2)
         );
+    }
+
+    /// What a group stored: per batch its number and counts and the rows it stored, then
+    /// every row of the mission with its batch number, as read back.
+    type Outcome = (
+        Vec<Option<(i64, u64, u64, Vec<ObservationRow>)>>,
+        Vec<(i64, ObservationRow)>,
+    );
+
+    async fn store_groups(
+        store: &Store,
+        by_script: bool,
+        groups: &[Vec<NewBatch<'_>>],
+    ) -> Vec<Outcome> {
+        let mut out = Vec::new();
+        for g in groups {
+            assert!(store.takes_script(g), "the script takes these groups");
+            let answers = if by_script {
+                store.commit_script(g).await.expect("script")
+            } else {
+                let mut tx = store.write.begin().await.expect("begin");
+                let a = store.batches_in(&mut tx, g).await.expect("statements");
+                tx.commit().await.expect("commit");
+                a
+            };
+            let seq = store
+                .observation_seq("webster")
+                .await
+                .expect("seq")
+                .expect("mission");
+            let rows = store
+                .list_observations_through("webster", 0, seq)
+                .await
+                .expect("read");
+            let answers = answers
+                .into_iter()
+                .map(|a| a.map(|b| (b.seq, b.counts.accepted, b.counts.duplicate, b.stored)))
+                .collect();
+            out.push((answers, rows));
+        }
+        out
+    }
+
+    #[tokio::test]
+    async fn a_batch_stored_by_one_script_is_stored_as_by_one_statement_at_a_time() {
+        let (d1, d2) = (
+            tempfile::tempdir().expect("dir"),
+            tempfile::tempdir().expect("dir"),
+        );
+        let (script, statements) = (store_with_webster(&d1).await, store_with_webster(&d2).await);
+        let a = [
+            row("0", 1.0, 38.1),
+            row("1", 1.0, 38.1),
+            row("2", 1.5, 38.0),
+        ];
+        let b = [
+            row("0", 1.0, 38.2),
+            row("0", 2.0, 38.2),
+            row("0", 2.0, 38.3),
+        ];
+        let c = [row("1", 3.0, 38.3)];
+        let d = [
+            row("1", 1.0, 38.4),
+            row("3", 4.0, 38.4),
+            row("2", 0.5, 38.4),
+        ];
+        let batch = |mission_id, rows, received_at_s| NewBatch {
+            mission_id,
+            rows,
+            received_at_s,
+            writer: "gcs",
+        };
+        let groups = vec![
+            vec![batch("webster", &a[..], 10.0)],
+            // Three batches of one mission with a missing mission between them, rows
+            // already stored, and one row twice in a batch.
+            vec![
+                batch("webster", &b, 11.0),
+                batch("nope", &c, 11.5),
+                batch("webster", &c, 12.0),
+                batch("webster", &d, 12.5),
+            ],
+            vec![batch("webster", &[][..], 13.0)],
+            vec![batch("nope", &a, 14.0)],
+            vec![batch("webster", &d, 15.0), batch("webster", &a, 15.0)],
+        ];
+        let by_script = store_groups(&script, true, &groups).await;
+        let one_by_one = store_groups(&statements, false, &groups).await;
+        assert_eq!(by_script, one_by_one);
+        // What the statements stored, checked by hand at the second and last groups.
+        let (answers, rows) = &one_by_one[1];
+        assert_eq!(
+            answers[0].as_ref().map(|x| (x.0, x.1, x.2)),
+            Some((2, 1, 2))
+        );
+        assert!(answers[1].is_none());
+        assert_eq!(answers[2].as_ref().map(|x| (x.0, x.1)), Some((3, 1)));
+        assert_eq!(
+            answers[3].as_ref().map(|x| (x.0, x.1, x.2)),
+            Some((4, 2, 1)),
+            "d's (\"1\", 1.0) came with a"
+        );
+        assert_eq!(rows.len(), 3 + 1 + 1 + 2);
+        let (answers, rows) = &one_by_one[4];
+        assert_eq!(
+            answers
+                .iter()
+                .map(|x| x.as_ref().map(|x| (x.0, x.1)))
+                .collect::<Vec<_>>(),
+            [Some((6, 0)), Some((7, 0))],
+            "the empty batch took 5, the missing mission's none"
+        );
+        assert_eq!(rows.len(), 7);
+    }
+
+    #[tokio::test]
+    async fn a_script_that_fails_stores_nothing_and_leaves_the_connection_ready() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        let mut bad = row("1", 2.0, 38.1);
+        bad.radius_m = f64::NAN; // bound as NULL: the NOT NULL constraint fails
+        let rows = [row("0", 2.0, 38.1), bad];
+        let batch = |rows| NewBatch {
+            mission_id: "webster",
+            rows,
+            received_at_s: 10.0,
+            writer: "gcs",
+        };
+        assert!(store.commit_script(&[batch(&rows[..])]).await.is_err());
+        assert_eq!(
+            store.observation_seq("webster").await.expect("seq"),
+            Some(0)
+        );
+        // The next batch starts a transaction of its own and takes number 1.
+        let good = store
+            .commit_script(&[batch(&rows[..1])])
+            .await
+            .expect("commit")
+            .pop()
+            .flatten()
+            .expect("mission");
+        assert_eq!((good.seq, good.counts.accepted), (1, 1));
+        let id = wire::ids::MissionId::from("webster");
+        let stored = store
+            .list_observations(&id, None, None)
+            .await
+            .expect("list");
+        assert_eq!(stored, [row("0", 2.0, 38.1)]);
     }
 
     fn sample(t_s: f64, lat_deg: f64) -> TelemetryRow {
