@@ -17,7 +17,7 @@ use std::collections::HashMap;
 use sqlx::{AssertSqlSafe, Row};
 
 use super::{
-    Backend, InsertCounts, ObservationRow, Store, ValuesSql, observation_row, values_sql,
+    AnyQuery, Backend, InsertCounts, ObservationRow, Store, ValuesSql, observation_row, values_sql,
     values_sql_anonymous,
 };
 use crate::time::to_us;
@@ -189,17 +189,7 @@ impl Store {
             );
             let mut q = sqlx::query(AssertSqlSafe(sql));
             for &(mission_id, seq, received_us, writer, r) in chunk {
-                q = q
-                    .bind(mission_id.to_string())
-                    .bind(r.obstacle_id.clone())
-                    .bind(to_us(r.t_s))
-                    .bind(r.lat_deg)
-                    .bind(r.lon_deg)
-                    .bind(r.alt_msl_m)
-                    .bind(r.radius_m)
-                    .bind(received_us)
-                    .bind(seq)
-                    .bind(writer.to_string());
+                q = bind_observation(q, mission_id, r, received_us, seq, writer);
             }
             for r in q.fetch_all(&mut **tx).await? {
                 numbers.take_row(&r, &mut stored)?;
@@ -290,17 +280,7 @@ impl Store {
             });
             let received_us = to_us(b.received_at_s);
             for r in b.rows {
-                q = q
-                    .bind(b.mission_id.to_string())
-                    .bind(r.obstacle_id.clone())
-                    .bind(to_us(r.t_s))
-                    .bind(r.lat_deg)
-                    .bind(r.lon_deg)
-                    .bind(r.alt_msl_m)
-                    .bind(r.radius_m)
-                    .bind(received_us)
-                    .bind(later)
-                    .bind(b.writer.to_string());
+                q = bind_observation(q, b.mission_id, r, received_us, later, b.writer);
             }
         }
         let mut conn = self.write.acquire().await?;
@@ -372,6 +352,29 @@ impl Store {
         });
         Ok(out)
     }
+}
+
+/// Binds one observation's ten values (mission, obstacle, time, position, radius, time of
+/// receipt, `seq`, writer) in the order of the inserts' column lists; `seq` is the batch
+/// number, or in [`Store::commit_script`] how many batches of the mission come after it.
+fn bind_observation<'q>(
+    q: AnyQuery<'q>,
+    mission_id: &str,
+    r: &ObservationRow,
+    received_us: i64,
+    seq: i64,
+    writer: &str,
+) -> AnyQuery<'q> {
+    q.bind(mission_id.to_string())
+        .bind(r.obstacle_id.clone())
+        .bind(to_us(r.t_s))
+        .bind(r.lat_deg)
+        .bind(r.lon_deg)
+        .bind(r.alt_msl_m)
+        .bind(r.radius_m)
+        .bind(received_us)
+        .bind(seq)
+        .bind(writer.to_string())
 }
 
 /// The missions of `batches` in order of first appearance, each with its number of
