@@ -8,10 +8,11 @@
 //! counters of all the group's missions, one multi-row insert stores all their
 //! observations and one all the telemetry posts' samples (up to 256 rows a statement),
 //! then each request is answered. A group of batches alone goes to SQLite as one script
-//! (`BEGIN`, the bump, the insert, `COMMIT`: [`Store::commit_script`]), one round trip. Telemetry posts that come without batches need no
-//! transaction: they are stored with one statement per [`TELEMETRY_CHUNK_ROWS`] rows,
-//! never splitting a post ([`Store::commit_posts`]): one round trip instead of `BEGIN`, a
-//! lookup of the missions, the insert and `COMMIT`. A lone write goes at once (no waiting
+//! (`BEGIN`, the bump, the insert, `COMMIT`: [`Store::commit_script`]), one round trip.
+//! Telemetry posts that come without batches need no transaction: they are stored with
+//! one statement per [`TELEMETRY_CHUNK_ROWS`] rows, never splitting a post
+//! ([`Store::commit_posts`]): one round trip instead of `BEGIN`, a lookup of the missions,
+//! the insert and `COMMIT`. A lone write goes at once (no waiting
 //! for company), so a quiet mission's latency is a single transaction as before. The task
 //! runs on the database writer's runtime ([`super::writer`]).
 //!

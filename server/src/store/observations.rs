@@ -145,16 +145,9 @@ impl Store {
         // One statement bumps every mission's counter (one round trip to the database
         // however many missions the group holds); a mission that does not exist returns
         // no row.
-        let cases: String = (0..missions.len())
-            .map(|k| format!(" WHEN ${} THEN ${}", 2 * k + 1, 2 * k + 2))
-            .collect();
-        let ids = (0..missions.len())
-            .map(|k| format!("${}", 2 * k + 1))
-            .collect::<Vec<_>>()
-            .join(",");
-        let mut q = sqlx::query(AssertSqlSafe(format!(
-            "UPDATE missions SET obs_seq = obs_seq + CASE id{cases} END WHERE id IN ({ids}) RETURNING id, obs_seq"
-        )));
+        let mut q = sqlx::query(AssertSqlSafe(bump_sql(missions.len(), |k| {
+            [format!("${}", 2 * k + 1), format!("${}", 2 * k + 2)]
+        })));
         for &(m, n) in &missions {
             q = q.bind(m.to_string()).bind(n);
         }
@@ -182,10 +175,10 @@ impl Store {
         };
         for chunk in rows.chunks(chunk_rows) {
             let sql = values(
-                "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq, written_by) VALUES ",
+                &format!("{OBSERVATION_INSERT} VALUES "),
                 10,
                 chunk.len(),
-                " ON CONFLICT DO NOTHING RETURNING obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, seq, mission_id",
+                &format!(" ON CONFLICT DO NOTHING {OBSERVATION_RETURNING}"),
             );
             let mut q = sqlx::query(AssertSqlSafe(sql));
             for &(mission_id, seq, received_us, writer, r) in chunk {
@@ -246,22 +239,23 @@ impl Store {
         }
         let missions = batch_counts(batches);
         let n_rows: usize = batches.iter().map(|b| b.rows.len()).sum();
-        let ids = vec!["?"; missions.len()].join(",");
         let mut sql = format!(
-            "BEGIN; UPDATE missions SET obs_seq = obs_seq + CASE id{} END WHERE id IN ({ids}) RETURNING id, obs_seq; ",
-            " WHEN ? THEN ?".repeat(missions.len())
+            "BEGIN; {}; ",
+            bump_sql(missions.len(), |_| ["?".into(), "?".into()])
         );
         if n_rows > 0 {
             // The ninth value is how many batches of its mission come after the row's
             // in the group: its number is the mission's counter (bumped just above) less
             // that. A mission that does not exist joins no row.
             sql.push_str(&values_sql_anonymous(
-                "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq, written_by) \
-                 SELECT v.column1, v.column2, v.column3, v.column4, v.column5, v.column6, v.column7, v.column8, m.obs_seq - v.column9, v.column10 FROM (VALUES ",
+                &format!(
+                    "{OBSERVATION_INSERT} SELECT v.column1, v.column2, v.column3, v.column4, v.column5, v.column6, v.column7, v.column8, m.obs_seq - v.column9, v.column10 FROM (VALUES "
+                ),
                 10,
                 n_rows,
-                ") AS v, missions AS m WHERE m.id = v.column1 \
-                 ON CONFLICT DO NOTHING RETURNING obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, seq, mission_id; ",
+                &format!(
+                    ") AS v, missions AS m WHERE m.id = v.column1 ON CONFLICT DO NOTHING {OBSERVATION_RETURNING}; "
+                ),
             ));
         }
         sql.push_str("COMMIT;");
@@ -352,6 +346,34 @@ impl Store {
         });
         Ok(out)
     }
+}
+
+/// The observation inserts' head: the ten columns [`bind_observation`] binds, in order.
+const OBSERVATION_INSERT: &str = "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, received_at_us, seq, written_by)";
+
+/// What the observation inserts return of each stored row: [`observation_row`]'s six
+/// columns, then the batch number and the mission ([`Numbering::take_row`]).
+const OBSERVATION_RETURNING: &str =
+    "RETURNING obstacle_id, t_us, lat_deg, lon_deg, alt_msl_m, radius_m, seq, mission_id";
+
+/// The statement that bumps the batch counters of `n` missions at once, returning each
+/// existing mission's id and new counter (a mission that does not exist returns no row);
+/// `marks(k)` gives the placeholders of the `k`-th mission's id and count (its id is
+/// bound again for `IN` when they are anonymous).
+fn bump_sql(n: usize, marks: impl Fn(usize) -> [String; 2]) -> String {
+    let marks: Vec<[String; 2]> = (0..n).map(marks).collect();
+    let cases: String = marks
+        .iter()
+        .map(|[id, count]| format!(" WHEN {id} THEN {count}"))
+        .collect();
+    let ids = marks
+        .iter()
+        .map(|[id, _]| id.as_str())
+        .collect::<Vec<_>>()
+        .join(",");
+    format!(
+        "UPDATE missions SET obs_seq = obs_seq + CASE id{cases} END WHERE id IN ({ids}) RETURNING id, obs_seq"
+    )
 }
 
 /// Binds one observation's ten values (mission, obstacle, time, position, radius, time of
