@@ -152,8 +152,12 @@ impl MotionModel {
     }
 
     /// How far the obstacle can be from its start position after `dt_s` seconds, metres
-    /// (ignoring its radius).
+    /// (ignoring its radius). Unbounded with a recognized lap: the lap goes wherever the
+    /// tour went, whatever the speed now (0 at the turn-back of an out-and-back).
     pub fn reach_m(&self, dt_s: f64) -> f64 {
+        if self.lap.is_some() && dt_s > 0.0 {
+            return f64::INFINITY;
+        }
         let v = if self.stage == Stage::NoFly {
             self.nofly_speed_mps
         } else {
@@ -251,6 +255,13 @@ impl<'a> Propagator<'a> {
     /// decision interval.
     pub fn new<R: Rng + ?Sized>(model: &'a MotionModel, n: usize, rng: &mut R) -> Self {
         Self::with_replay(model, None, n, rng)
+    }
+
+    /// Whether the particles replay the obstacle's own past ([`crate::replay`]) rather
+    /// than draw turn rates: they then move even when the model's speed is 0 (an obstacle
+    /// at rest now that went on before).
+    pub fn replays(&self) -> bool {
+        self.replay.is_some()
     }
 
     /// As [`Propagator::new`]; when the model has [`MotionModel::replay`] set and

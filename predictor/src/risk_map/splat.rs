@@ -70,16 +70,19 @@ impl RiskMap {
                     .position_at(tk, f64::INFINITY)
                     .unwrap_or(o.model.position_m);
                 self.add_particle(p, all);
-            } else if o.model.speed_mps <= 0.0 {
-                self.add_particle(o.model.position_m, all);
             } else if let Some(at) = o
                 .model
                 .lap
                 .and_then(|lap| lap.at(o.track, tk - o.model.t_s, LAP_MAX_GAP_S))
             {
+                // Before the rest test: a lap predicts where the obstacle goes even while
+                // it is at rest now (the turn-back of an out-and-back), as
+                // `Predictor::sample_future` does.
                 for z in &lap_z {
                     self.add_particle(at.particle(*z), 1);
                 }
+            } else if o.model.speed_mps <= 0.0 && !prop.replays() {
+                self.add_particle(o.model.position_m, all);
             } else {
                 prop.advance_to(tk, &mut rng);
                 for i in 0..n {
