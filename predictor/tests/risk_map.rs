@@ -428,6 +428,16 @@ fn a_map_read_for_an_altitude_band_leaves_out_exactly_the_obstacles_out_of_its_r
     );
 }
 
+/// Period of [`shuttle`], seconds.
+const SHUTTLE_PERIOD_S: f64 = 31.0;
+
+/// An out-and-back along a line at `t_s`: speed 0 at both ends (230 m apart), up to 23 m/s
+/// in the middle, a turn-back every half period.
+fn shuttle(t_s: f64) -> [f64; 2] {
+    let s = 115.0 * (std::f64::consts::TAU / SHUTTLE_PERIOD_S * t_s).cos();
+    [s * 0.9, s * 0.44]
+}
+
 /// An out-and-back shuttle (Webster Field with mixed spheres, seed 28: an 80 m sphere
 /// sweeping 230 m back and forth every 31 s) seen at its turn-back, where its fitted speed
 /// is under the stationary threshold (0) while its recognized lap knows where it goes
@@ -436,13 +446,7 @@ fn a_map_read_for_an_altitude_band_leaves_out_exactly_the_obstacles_out_of_its_r
 /// made then read nothing where the sphere came back 5-8 s later (19.6 m deep hit).
 #[test]
 fn an_obstacle_at_rest_at_the_turn_back_of_its_lap_is_mapped_along_the_lap() {
-    let period = 31.0;
-    let w = std::f64::consts::TAU / period;
-    // Along a line, speed 0 at both ends (x = +-115 m), up to 23 m/s in the middle.
-    let truth = |t: f64| {
-        let s = 115.0 * (w * t).cos();
-        [s * 0.9, s * 0.44]
-    };
+    let truth = shuttle;
     let mut p = Predictor::new(PredictorConfig::default());
     // 5 Hz, as the judges' server; stop at the first observation after two laps where the
     // model is at rest with a lap (the turn-backs come every 15.5 s).
@@ -451,17 +455,13 @@ fn an_obstacle_at_rest_at_the_turn_back_of_its_lap_is_mapped_along_the_lap() {
         let t = f64::from(i) * 0.2;
         p.observe("s", obs(t, truth(t), 40.0));
         let m = p.model("s").unwrap();
-        if t > 2.0 * period && m.speed_mps == 0.0 && m.lap.is_some() {
+        if t > 2.0 * SHUTTLE_PERIOD_S && m.speed_mps == 0.0 && m.lap.is_some() {
             t_end = Some(t);
             break;
         }
     }
     let t0 = t_end.expect("the shuttle is at rest with a recognized lap at some turn-back");
-    let c = RiskMapConfig::default()
-        .bounds([-400.0, -400.0], [400.0, 400.0])
-        .time(1.0, 30.0)
-        .particles(128)
-        .seed(7);
+    let c = cfg();
     let stop = truth(t0);
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(1);
     let predicted: Vec<[f64; 2]> = [3.0, 5.0, 8.0, 12.0]
@@ -533,13 +533,11 @@ fn the_map_reads_risk_wherever_the_predictors_own_samples_put_an_obstacle() {
         }
         cases.push((format!("{b:?}"), p, 60.0));
     }
-    let w = std::f64::consts::TAU / 31.0;
     for end in [70.0, 73.0, 77.4, 77.6, 80.0, 93.0] {
         let mut p = Predictor::new(PredictorConfig::default());
         let mut t = 0.0;
         while t <= end + 1e-9 {
-            let s = 115.0 * (w * t).cos();
-            p.observe("o", obs(t, [s * 0.9, s * 0.44], 40.0));
+            p.observe("o", obs(t, shuttle(t), 40.0));
             t += 0.2;
         }
         cases.push((format!("out-and-back to {end} s"), p, end));
