@@ -12,6 +12,9 @@
 //! reported; then each gets one plan (which builds its risk map; the server keeps at most
 //! `--live-max-maps` of them) and VmRSS is reported again.
 //! `JINK_PLAN_DATABASE_URL` overrides the store (default: a fresh SQLite file).
+//! Each phase also prints its plans by outcome with their `compute_ms`: the aircraft holds
+//! its position while the spheres circle past it, so some plans find no clear route and
+//! run the safety net, which takes several times as long.
 
 mod support;
 
@@ -88,6 +91,10 @@ struct Phase {
     plan_phases: std::collections::BTreeMap<String, Vec<f64>>,
     /// Plans whose map lacked the batch posted just before (`map_lag_batches` > 0).
     plans_lagging: usize,
+    /// Each plan's `compute_ms` by its outcome (`exact`, `no_safe_path`, ...): a plan that
+    /// finds no clear route tries the safety net's detours and escapes too, so it computes
+    /// longer.
+    plan_outcomes: std::collections::BTreeMap<String, Vec<f64>>,
     ingest_ms: Vec<f64>,
     /// The server's `Server-Timing` phases of each ingest, by name.
     ingest_phases: std::collections::BTreeMap<String, Vec<f64>>,
@@ -109,6 +116,7 @@ async fn fly(
         plan_compute_ms: Vec::new(),
         plan_phases: std::collections::BTreeMap::new(),
         plans_lagging: 0,
+        plan_outcomes: std::collections::BTreeMap::new(),
         ingest_ms: Vec::new(),
         ingest_phases: std::collections::BTreeMap::new(),
         cpu_s: 0.0,
@@ -147,6 +155,10 @@ async fn fly(
             let v: Value = r.json().await.unwrap();
             ph.plan_rt_ms.push(s.elapsed().as_secs_f64() * 1e3);
             ph.plan_compute_ms.push(v["compute_ms"].as_f64().unwrap());
+            ph.plan_outcomes
+                .entry(v["outcome"].as_str().unwrap_or("?").to_string())
+                .or_default()
+                .push(v["compute_ms"].as_f64().unwrap());
             if v["map_lag_batches"].as_i64().unwrap_or(0) > 0 {
                 ph.plans_lagging += 1;
             }
@@ -196,6 +208,19 @@ fn main() {
                     phase_pcts(&mut ph.ingest_phases),
                     ph.plans_lagging,
                     ph.plan_rt_ms.len()
+                );
+                println!(
+                    "    plan outcomes (compute_ms p50/p99): {}",
+                    ph.plan_outcomes
+                        .iter_mut()
+                        .map(|(k, ms)| format!(
+                            "{k} {} ({:.2}/{:.2})",
+                            ms.len(),
+                            pct(ms, 0.5),
+                            pct(ms, 0.99)
+                        ))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 );
             }
         }
