@@ -154,11 +154,12 @@ async fn fly(
             let timing = server_timing(&r);
             let v: Value = r.json().await.unwrap();
             ph.plan_rt_ms.push(s.elapsed().as_secs_f64() * 1e3);
-            ph.plan_compute_ms.push(v["compute_ms"].as_f64().unwrap());
+            let compute_ms = v["compute_ms"].as_f64().unwrap();
+            ph.plan_compute_ms.push(compute_ms);
             ph.plan_outcomes
                 .entry(v["outcome"].as_str().unwrap_or("?").to_string())
                 .or_default()
-                .push(v["compute_ms"].as_f64().unwrap());
+                .push(compute_ms);
             if v["map_lag_batches"].as_i64().unwrap_or(0) > 0 {
                 ph.plans_lagging += 1;
             }
