@@ -118,9 +118,9 @@ pub struct PlanParams {
     /// time-graded limit grows from it to [`VerifyParams::far_risk`] at the horizon).
     /// Default 0.1: the risk map is re-read every replan, and a route through a thin edge
     /// of a predicted spread is revised as the spread sharpens, while a wall at 0.05 sent the
-    /// aircraft round spreads the obstacle never filled (issue 10, Webster Field, 800 runs:
-    /// mean path ratio 0.08-0.18 lower, sphere hits 3 -> 5, ahead by the team's scoring with the
-    /// hits counted; 0.2 was shorter still but hit twice in 200 Webster spline runs where
+    /// aircraft round spreads the obstacle never filled (issue 10, Webster Field, 1,200
+    /// runs: mean path ratio 0.06-0.18 lower, sphere hits 6 -> 7, ahead by the team's
+    /// scoring with the hits counted; 0.2 was shorter still but hit twice in 200 Webster spline runs where
     /// 0.05 and 0.1 hit none).
     pub safe_risk: f64,
     /// Obstacle variability hint in `[0, 1]` (e.g. from the predictor's stage);
