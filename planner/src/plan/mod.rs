@@ -120,8 +120,8 @@ pub struct PlanParams {
     /// of a predicted spread is revised as the spread sharpens, while a wall at 0.05 sent the
     /// aircraft round spreads the obstacle never filled (issue 10, Webster Field, 1,200
     /// runs: mean path ratio 0.06-0.18 lower, sphere hits 6 -> 7, ahead by the team's
-    /// scoring with the hits counted; 0.2 was shorter still but hit twice in 200 Webster spline runs where
-    /// 0.05 and 0.1 hit none).
+    /// scoring with the hits counted; 0.2 was shorter still but hit twice in 200 Webster
+    /// spline runs where 0.05 and 0.1 hit none).
     pub safe_risk: f64,
     /// Obstacle variability hint in `[0, 1]` (e.g. from the predictor's stage);
     /// `None` = derived per leg from the risk bound.
