@@ -11,6 +11,11 @@
 //!   kernel density over the samples (isotropic, Silverman bandwidth, at least 1 m);
 //! - `auto_no_lap`: the automatic stage's scores again, counted only while no lap of the
 //!   obstacle's tour is recognized (a spline tour before its first whole lap);
+//! - `auto_young` and `cv_young`: the automatic stage and constant velocity scored at
+//!   evaluation times *before* the warm-up, every `young_every_s` from the first (a track
+//!   seen for 3 to 27 s by default): what a plan reads in a mission's first half-minute,
+//!   before the obstacle has shown enough flight for replay or a lap; the other rows never
+//!   see those times;
 //! - constant velocity: an isotropic Gaussian centred on the least-squares CV extrapolation
 //!   (3 s window) with `sigma = 2 m + 0.1 * speed * horizon` (a stated, not fitted, spread).
 //!
@@ -31,7 +36,8 @@ use crate::strategy::constant_velocity::fit_cv;
 use crate::telemetry::{TelemetryParams, sample_streams};
 
 /// Parameters. Defaults: 20 seeds per behaviour, horizons 1, 3, 5, 10, 20 s, 256 samples,
-/// evaluation every 10 s after 30 s of telemetry, default telemetry.
+/// evaluation every 10 s after 30 s of telemetry (and every 3 s before that for the
+/// `_young` rows), default telemetry.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PredictionParams {
     /// Seeds per behaviour.
@@ -44,6 +50,9 @@ pub struct PredictionParams {
     pub eval_every_s: f64,
     /// Telemetry before the first evaluation, seconds.
     pub warmup_s: f64,
+    /// Seconds between the evaluations of the `_young` rows, from this time until the
+    /// warm-up; 0 leaves them out.
+    pub young_every_s: f64,
     /// Telemetry.
     pub telemetry: TelemetryParams,
 }
@@ -56,6 +65,7 @@ impl Default for PredictionParams {
             samples: 256,
             eval_every_s: 10.0,
             warmup_s: 30.0,
+            young_every_s: 3.0,
             telemetry: TelemetryParams::default(),
         }
     }
@@ -66,7 +76,8 @@ impl Default for PredictionParams {
 pub struct PredictionRow {
     /// Behaviour.
     pub behaviour: BehaviourKind,
-    /// `no_fly`, `random`, `advanced`, `memory`, `auto`, `cv` or `auto_no_lap`.
+    /// `no_fly`, `random`, `advanced`, `memory`, `auto`, `cv`, `auto_no_lap`, `auto_young`
+    /// or `cv_young`.
     pub method: String,
     /// Horizon, seconds.
     pub horizon_s: f64,
@@ -133,8 +144,9 @@ fn family_of(b: BehaviourKind) -> Family {
 }
 
 /// `auto_no_lap` is `auto` scored only while no lap of the obstacle's tour is recognized
-/// (a spline tour before its first lap; every other behaviour always).
-const METHODS: [&str; 7] = [
+/// (a spline tour before its first lap; every other behaviour always); `auto_young` and
+/// `cv_young` are scored only at the evaluations before the warm-up, the others only after.
+const METHODS: [&str; 9] = [
     "no_fly",
     "random",
     "advanced",
@@ -142,6 +154,8 @@ const METHODS: [&str; 7] = [
     "auto",
     "cv",
     "auto_no_lap",
+    "auto_young",
+    "cv_young",
 ];
 
 /// Runs the prediction report for `behaviours`.
@@ -164,8 +178,23 @@ pub fn prediction_report(
                 let max_h = params.horizons_s.iter().copied().fold(0.0, f64::max);
                 let mut pred = Predictor::new(PredictorConfig::default());
                 let mut fed = vec![0usize; streams.len()];
-                let mut t_e = params.warmup_s;
-                while t_e + max_h <= s.duration_s {
+                let mut evals = Vec::new();
+                if params.young_every_s > 0.0 {
+                    let mut t = params.young_every_s;
+                    while t < params.warmup_s {
+                        evals.push((t, true));
+                        t += params.young_every_s;
+                    }
+                }
+                let mut t = params.warmup_s;
+                while t + max_h <= s.duration_s {
+                    evals.push((t, false));
+                    t += params.eval_every_s;
+                }
+                for (t_e, young) in evals {
+                    if t_e + max_h > s.duration_s {
+                        continue;
+                    }
                     for (i, st) in streams.iter().enumerate() {
                         let n = st.partition_point(|o| o.t_s <= t_e);
                         for o in &st[fed[i]..n] {
@@ -191,6 +220,22 @@ pub fn prediction_report(
                             let truth = sp.track.at(t);
                             let truth = [truth[0], truth[1]];
                             let dt = t - last.t_s;
+                            if young {
+                                if let Some(smp) =
+                                    pred.sample_future(&id, dt, params.samples, &mut rng)
+                                {
+                                    let (nll, cov) = score_samples(&smp, truth);
+                                    acc[7][hi].0 += nll;
+                                    acc[7][hi].1 += usize::from(cov);
+                                    acc[7][hi].2 += 1;
+                                }
+                                let (nll, cov) =
+                                    score_gaussian(cv.at(t), 2.0 + 0.1 * speed * h, truth);
+                                acc[8][hi].0 += nll;
+                                acc[8][hi].1 += usize::from(cov);
+                                acc[8][hi].2 += 1;
+                                continue;
+                            }
                             for (mi, st) in stages.iter().enumerate() {
                                 if let Some(smp) = pred.sample_future_with_stage(
                                     &id,
@@ -223,7 +268,6 @@ pub fn prediction_report(
                             acc[5][hi].2 += 1;
                         }
                     }
-                    t_e += params.eval_every_s;
                 }
                 acc
             })
@@ -308,6 +352,53 @@ mod tests {
         assert!(!score_gaussian([0.0, 0.0], 1.0, [2.5, 0.0]).1);
         // very far: floored at -ln(1e-12) = 27.63
         assert!((score_gaussian([0.0, 0.0], 1.0, [1e3, 0.0]).0 - 27.631).abs() < 1e-3);
+    }
+
+    #[test]
+    fn the_young_rows_score_only_the_evaluations_before_the_warm_up() {
+        let count = |rows: &[PredictionRow], m: &str| -> usize {
+            rows.iter()
+                .filter(|r| r.method == m && r.horizon_s == 1.0)
+                .map(|r| r.n)
+                .sum()
+        };
+        let base = PredictionParams {
+            seeds: 1,
+            horizons_s: vec![1.0],
+            samples: 32,
+            ..Default::default()
+        };
+        let without = prediction_report(
+            &[BehaviourKind::Straight],
+            &PredictionParams {
+                young_every_s: 0.0,
+                ..base.clone()
+            },
+        );
+        let with = prediction_report(&[BehaviourKind::Straight], &base);
+        assert_eq!(count(&without, "auto_young"), 0);
+        assert_eq!(count(&without, "cv_young"), 0);
+        // The rows after the warm-up see the same evaluations either way.
+        for m in ["auto", "cv", "random", "no_fly"] {
+            assert!(count(&with, m) > 0, "{m}");
+            assert_eq!(count(&with, m), count(&without, m), "{m}");
+        }
+        // 3, 6, ..., 27 s: nine evaluations per sphere seen by then, each scored once by
+        // each young method.
+        let young = count(&with, "cv_young");
+        assert!(young > 0);
+        assert_eq!(count(&with, "auto_young"), young);
+        let s = generate(Family::Straight, 0, &ScenarioParams::default());
+        assert!(
+            young <= 9 * s.spheres.len(),
+            "{young} for {} spheres",
+            s.spheres.len()
+        );
+        assert!(
+            young >= 8 * s.spheres.len(),
+            "{young} for {} spheres",
+            s.spheres.len()
+        );
     }
 
     #[test]
