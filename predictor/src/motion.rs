@@ -274,7 +274,7 @@ impl<'a> Propagator<'a> {
         rng: &mut R,
     ) -> Self {
         if let (Some(rm), Some((track, man))) = (model.replay, replay)
-            && let Some(mut rp) = ReplayParticles::new(
+            && let Some(rp) = ReplayParticles::new(
                 track,
                 man,
                 &rm.cfg,
@@ -287,9 +287,6 @@ impl<'a> Propagator<'a> {
                 rng,
             )
         {
-            if rp.watched_s() < rm.cfg.young_s {
-                rp.jitter_starts(model.start_position_sigma_m, rng);
-            }
             return Self {
                 model,
                 x: vec![model.position_m[0]; n],

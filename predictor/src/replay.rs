@@ -32,12 +32,9 @@
 //! estimator from the same noisy stream as the present one, so their errors (position,
 //! heading) are alike, and the particles' spread about their centre matches the truth's
 //! deviation from it. The displacements carry the obstacle's real speed, turning, bias and
-//! pattern, in the proportions it has shown. The one exception is a young track (watched
-//! for less than [`ReplayConfig::young_s`]): its few anchors hold only a handful of those
-//! errors, so each particle's start is also moved by the stage models' start spread (a
-//! smoothed bootstrap; without it the 95% region covered 75-92% of truths 1 s ahead). What
-//! replay cannot know is behaviour it has not yet shown; the stage models (random,
-//! advanced, memory) stand in until there is [`ReplayConfig::min_history_s`] of it.
+//! pattern, in the proportions it has shown. What replay cannot know is behaviour it has not
+//! yet shown; the stage models (random, advanced, memory) stand in until there is
+//! [`ReplayConfig::min_history_s`] of it.
 //!
 //! Smooth flight: an obstacle flying a smooth curve (the judges' spline tours: each axis a
 //! cubic in time) is extrapolated far better by a quadratic in time fitted to its last
@@ -68,11 +65,7 @@ use rand::Rng;
 pub struct ReplayConfig {
     /// Window of the fits that give a frame, seconds. Default 2.
     pub heading_window_s: f64,
-    /// Observed flight needed before replay is used, seconds. Default 5: a track's own
-    /// first seconds, replayed with broad novelty tails (rate one over the watched time),
-    /// predict it better than the stage models do (the prediction report's `auto_young`
-    /// rows; it was 20 until 2026-11-28, when the stage models' 95% regions covered 47-72%
-    /// of truths 20 s ahead in a track's first half-minute).
+    /// Observed flight needed before replay is used, seconds. Default 20.
     pub min_history_s: f64,
     /// Oldest flight replayed, seconds before the newest observation. Default 600.
     pub memory_s: f64,
@@ -92,18 +85,13 @@ pub struct ReplayConfig {
     /// obstacle's own past, seconds, ascending; it is flown up to the last one it wins in
     /// a row from the first. Default 5, 10.
     pub smooth_horizons_s: [f64; 2],
-    /// A track watched for less than this is *young*: its few anchors hold only a handful
-    /// of the present fit's errors, so each particle's start is also moved by the stage
-    /// models' start spread (`StageConfig::start_position_sigma_m`, a smoothed bootstrap).
-    /// Seconds; 0 never. Default 20 (the watch replay needed before 2026-11-28).
-    pub young_s: f64,
 }
 
 impl Default for ReplayConfig {
     fn default() -> Self {
         Self {
             heading_window_s: 2.0,
-            min_history_s: 5.0,
+            min_history_s: 20.0,
             memory_s: 600.0,
             min_stretch_s: 2.0,
             max_gap_s: 3.0,
@@ -111,7 +99,6 @@ impl Default for ReplayConfig {
             novelty: true,
             smooth_window_s: 8.0,
             smooth_horizons_s: [5.0, 10.0],
-            young_s: 20.0,
         }
     }
 }
@@ -360,11 +347,6 @@ pub struct ReplayParticles<'a> {
     now_quad: Option<Quad>,
     /// Particles still on the smooth extrapolation.
     smooth: Vec<Option<Smooth>>,
-    /// Seconds of flight watched (at least the shortest stretch).
-    watched_s: f64,
-    /// Each particle's start offset (a young track's smoothed bootstrap), metres; empty
-    /// when none.
-    jitter: Vec<[f64; 2]>,
 }
 
 /// What a particle flies after leaving its replay.
@@ -454,8 +436,6 @@ impl<'a> ReplayParticles<'a> {
             novel,
             now_quad: None,
             smooth: vec![None; n],
-            watched_s,
-            jitter: Vec::new(),
         };
         let smooth_s = p.smooth_horizon(cfg);
         for i in 0..n {
@@ -481,28 +461,6 @@ impl<'a> ReplayParticles<'a> {
             }
         }
         Some(p)
-    }
-
-    /// Seconds of flight the replay has watched (at least the shortest stretch).
-    pub fn watched_s(&self) -> f64 {
-        self.watched_s
-    }
-
-    /// Moves each particle's start by an independent Gaussian offset of `sigma_m` per axis,
-    /// kept for its whole flight (see [`ReplayConfig::young_s`]); drawn after the particles'
-    /// own draws, so a replay without it is unchanged.
-    pub fn jitter_starts<R: Rng + ?Sized>(&mut self, sigma_m: f64, rng: &mut R) {
-        use rand_distr::{Distribution, StandardNormal};
-        if sigma_m <= 0.0 {
-            return;
-        }
-        self.jitter = (0..self.cur.len())
-            .map(|_| {
-                let zx: f64 = StandardNormal.sample(&mut *rng);
-                let zy: f64 = StandardNormal.sample(&mut *rng);
-                [sigma_m * zx, sigma_m * zy]
-            })
-            .collect();
     }
 
     /// How far ahead particles fly the smooth extrapolation (module docs, "Smooth flight"):
@@ -695,10 +653,6 @@ impl<'a> ReplayParticles<'a> {
             if self.free[i].is_none() {
                 if e_s <= self.t_novel[i] {
                     [x[i], y[i]] = self.replayed(i, e_s, rng);
-                    if let Some(j) = self.jitter.get(i) {
-                        x[i] += j[0];
-                        y[i] += j[1];
-                    }
                     continue;
                 }
                 let p = self.replayed(i, self.t_novel[i], rng);
@@ -730,10 +684,6 @@ impl<'a> ReplayParticles<'a> {
                 f.e += h;
             }
             [x[i], y[i]] = f.p;
-            if let Some(j) = self.jitter.get(i) {
-                x[i] += j[0];
-                y[i] += j[1];
-            }
         }
     }
 }

@@ -227,56 +227,6 @@ fn assert_auto_covers_and_is_sharper(b: Behaviour) {
     }
 }
 
-/// A track watched for only 10 s is already replayed (after [`ReplayConfig::min_history_s`],
-/// 5 s; until 2026-11-28 it took 20 and the random stage predicted it); its novelty tails
-/// keep the 95% disc covering a biased turner 5 and 10 s ahead, and the young track's
-/// start spread ([`ReplayConfig::young_s`]) 1 s ahead, where its few anchors alone do not.
-#[test]
-fn a_track_watched_for_ten_seconds_is_replayed_and_covers_a_biased_turner() {
-    for h in [1.0, 5.0, 10.0] {
-        let (c, _, _) = auto_noisy(Behaviour::Biased { w: w15() }, 10.0, h, 80);
-        assert!(c >= 0.88, "+{h} s coverage {c}");
-    }
-}
-
-/// The start spread of a young track ([`ReplayConfig::young_s`]): half a second after 10 s
-/// of noisy telemetry, the replayed particles' 95% disc is wider with it than the added
-/// spread alone (2 m per axis) and 1.4 times as wide as without it (the few anchors' own
-/// residuals), and 40 s on (past `young_s`) the two predictions are the same.
-#[test]
-fn a_young_tracks_replay_starts_with_the_stage_models_spread() {
-    use rand_distr::{Distribution, Normal};
-    let noise = Normal::new(0.0, 1.0).unwrap();
-    let r95 = |young_s: f64, secs: f64| -> f64 {
-        let cfg = PredictorConfig {
-            replay: Some(ReplayConfig {
-                young_s,
-                ..ReplayConfig::default()
-            }),
-            ..PredictorConfig::default()
-        };
-        let mut p = Predictor::new(cfg);
-        let mut g = Generator::new(Behaviour::Uniform { w: w15() }, 15.0, 4242);
-        let mut nrng = ChaCha8Rng::seed_from_u64(7);
-        for (k, mut o) in g.track(secs).into_iter().enumerate() {
-            if k % 5 == 0 {
-                o.p_m[0] += noise.sample(&mut nrng);
-                o.p_m[1] += noise.sample(&mut nrng);
-                p.observe("0", o);
-            }
-        }
-        assert!(p.model("0").unwrap().replay.is_some());
-        let mut rng = ChaCha8Rng::seed_from_u64(1);
-        disc95(&p.sample_future("0", 0.5, 2000, &mut rng).unwrap()).1
-    };
-    let (with, without) = (r95(20.0, 10.0), r95(0.0, 10.0));
-    eprintln!("young r95 at +0.5 s: {with:.2} m with the start spread, {without:.2} m without");
-    // The anchors alone spread 3.7 m here; a 2 m Gaussian per axis alone has a 95% disc of
-    // 4.9 m; together about the root of the sum of squares.
-    assert!(with >= 4.9 && with >= 1.4 * without, "{with} vs {without}");
-    assert_eq!(r95(20.0, 40.0), r95(0.0, 40.0));
-}
-
 #[test]
 fn replayed_predictions_cover_a_constant_turn_mover_from_noisy_telemetry() {
     // 0.02 rad/s at 15 m/s: a 750 m circle, no lap closed in the 240 s watched.
