@@ -181,7 +181,7 @@ pub fn prediction_report(
                 let mut evals = Vec::new();
                 if params.young_every_s > 0.0 {
                     let mut t = params.young_every_s;
-                    while t < params.warmup_s {
+                    while t < params.warmup_s && t + max_h <= s.duration_s {
                         evals.push((t, true));
                         t += params.young_every_s;
                     }
@@ -192,9 +192,8 @@ pub fn prediction_report(
                     t += params.eval_every_s;
                 }
                 for (t_e, young) in evals {
-                    if t_e + max_h > s.duration_s {
-                        continue;
-                    }
+                    // Rows of `METHODS` the automatic stage and constant velocity score into.
+                    let (auto_row, cv_row) = if young { (7, 8) } else { (4, 5) };
                     for (i, st) in streams.iter().enumerate() {
                         let n = st.partition_point(|o| o.t_s <= t_e);
                         for o in &st[fed[i]..n] {
@@ -220,23 +219,14 @@ pub fn prediction_report(
                             let truth = sp.track.at(t);
                             let truth = [truth[0], truth[1]];
                             let dt = t - last.t_s;
-                            if young {
-                                if let Some(smp) =
-                                    pred.sample_future(&id, dt, params.samples, &mut rng)
-                                {
-                                    let (nll, cov) = score_samples(&smp, truth);
-                                    acc[7][hi].0 += nll;
-                                    acc[7][hi].1 += usize::from(cov);
-                                    acc[7][hi].2 += 1;
-                                }
-                                let (nll, cov) =
-                                    score_gaussian(cv.at(t), 2.0 + 0.1 * speed * h, truth);
-                                acc[8][hi].0 += nll;
-                                acc[8][hi].1 += usize::from(cov);
-                                acc[8][hi].2 += 1;
-                                continue;
-                            }
-                            for (mi, st) in stages.iter().enumerate() {
+                            let mut add = |row: usize, (nll, cov): (f64, bool)| {
+                                acc[row][hi].0 += nll;
+                                acc[row][hi].1 += usize::from(cov);
+                                acc[row][hi].2 += 1;
+                            };
+                            // The forced stages and `auto_no_lap` are scored after the
+                            // warm-up only.
+                            for (mi, st) in stages.iter().enumerate().filter(|_| !young) {
                                 if let Some(smp) = pred.sample_future_with_stage(
                                     &id,
                                     *st,
@@ -244,28 +234,21 @@ pub fn prediction_report(
                                     params.samples,
                                     &mut rng,
                                 ) {
-                                    let (nll, cov) = score_samples(&smp, truth);
-                                    acc[mi][hi].0 += nll;
-                                    acc[mi][hi].1 += usize::from(cov);
-                                    acc[mi][hi].2 += 1;
+                                    add(mi, score_samples(&smp, truth));
                                 }
                             }
                             if let Some(smp) = pred.sample_future(&id, dt, params.samples, &mut rng)
                             {
-                                let (nll, cov) = score_samples(&smp, truth);
-                                acc[4][hi].0 += nll;
-                                acc[4][hi].1 += usize::from(cov);
-                                acc[4][hi].2 += 1;
-                                if pred.model(&id).is_some_and(|m| m.lap.is_none()) {
-                                    acc[6][hi].0 += nll;
-                                    acc[6][hi].1 += usize::from(cov);
-                                    acc[6][hi].2 += 1;
+                                let score = score_samples(&smp, truth);
+                                add(auto_row, score);
+                                if !young && pred.model(&id).is_some_and(|m| m.lap.is_none()) {
+                                    add(6, score);
                                 }
                             }
-                            let (nll, cov) = score_gaussian(cv.at(t), 2.0 + 0.1 * speed * h, truth);
-                            acc[5][hi].0 += nll;
-                            acc[5][hi].1 += usize::from(cov);
-                            acc[5][hi].2 += 1;
+                            add(
+                                cv_row,
+                                score_gaussian(cv.at(t), 2.0 + 0.1 * speed * h, truth),
+                            );
                         }
                     }
                 }
