@@ -8,6 +8,7 @@
 //! - [`stage`]: the four stages and the tests between them.
 //! - [`motion`]: each stage's motion model and particle propagation.
 //! - [`replay`]: manoeuvre replay, the future drawn from stretches of the obstacle's own past.
+//! - [`young`]: a young track's quadratic in time, before replay has enough past.
 //! - [`risk_map`]: the time-indexed, incrementally updated risk map.
 //! - [`predictor`]: the multi-obstacle [`Predictor`] tying them together.
 //! - [`stats`]: chi-square and divergence helpers.
@@ -24,6 +25,7 @@ pub mod risk_map;
 pub mod stage;
 pub mod stats;
 pub mod track;
+pub mod young;
 
 pub use estimate::{Estimates, EstimatorConfig};
 pub use field::{NO_BAND_HINT, NoRisk, RiskField};

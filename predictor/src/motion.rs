@@ -21,6 +21,7 @@ use crate::replay::{Manoeuvres, Novel, ReplayConfig, ReplayParticles};
 use crate::stage::{Stage, StageConfig, TurnHistogram, slice_of};
 use crate::stats::smoothed;
 use crate::track::Track;
+use crate::young::YoungModel;
 use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 
@@ -74,6 +75,9 @@ pub struct MotionModel {
     /// track and frames ([`Propagator::with_replay`]) replays stretches of its own past
     /// instead of drawing turn rates.
     pub replay: Option<ReplayModel>,
+    /// A young track's quadratic ([`crate::young`]): when set (never with `replay` or
+    /// `lap`), particles fly it before turning as the stage model does.
+    pub young: Option<YoungModel>,
 }
 
 /// How an obstacle's own past is replayed ([`crate::replay`]).
@@ -148,6 +152,7 @@ impl MotionModel {
             start_heading_sigma_rad: cfg.start_heading_sigma_rad,
             lap: None,
             replay: None,
+            young: None,
         }
     }
 
@@ -157,6 +162,13 @@ impl MotionModel {
     pub fn reach_m(&self, dt_s: f64) -> f64 {
         if self.lap.is_some() && dt_s > 0.0 {
             return f64::INFINITY;
+        }
+        if let Some(y) = &self.young
+            && self.stage != Stage::NoFly
+        {
+            // Measured from the model's position, which the fit's may differ from.
+            let off = geom::dist(self.position_m, y.at(0.0));
+            return y.reach_m(dt_s) + off;
         }
         let v = if self.stage == Stage::NoFly {
             self.nofly_speed_mps
@@ -248,6 +260,70 @@ pub struct Propagator<'a> {
     next_decision_s: f64,
     tables: Vec<(u64, Vec<[f64; 4]>)>,
     replay: Option<ReplayParticles<'a>>,
+    /// Each particle's speed, m/s, once it left its young quadratic (empty: the model's).
+    speed: Vec<f64>,
+    /// Particles still on a young track's quadratic ([`crate::young`]).
+    young: Option<YoungParticles>,
+}
+
+/// Each particle's own quadratic (plus its jerk's cubic term) per axis: coefficients of
+/// `1, u, u^2, u^3`, `u` seconds after the model's start.
+#[derive(Debug, Clone)]
+struct YoungParticles {
+    coef: Vec<[[f64; 4]; 2]>,
+    until_s: f64,
+    centre: [f64; 2],
+    model: YoungModel,
+}
+
+impl YoungParticles {
+    fn draw<R: Rng + ?Sized>(y: &YoungModel, n: usize, rng: &mut R) -> Self {
+        let coef = (0..n)
+            .map(|_| {
+                std::array::from_fn(|axis| {
+                    let z: [f64; 4] = std::array::from_fn(|_| StandardNormal.sample(&mut *rng));
+                    let mut c = [y.c[axis][0], y.c[axis][1], y.c[axis][2], 0.0];
+                    for (r, cr) in c.iter_mut().take(3).enumerate() {
+                        for (k, zk) in z.iter().take(r + 1).enumerate() {
+                            *cr += y.l[r][k] * zk;
+                        }
+                    }
+                    c[3] = y.jerk_sigma_mps3 * z[3] / 6.0;
+                    c
+                })
+            })
+            .collect();
+        Self {
+            coef,
+            until_s: y.until_s,
+            centre: y.at(0.0),
+            model: *y,
+        }
+    }
+
+    /// Particle `i`'s position `u` seconds after the start, within the model's reach.
+    fn at(&self, i: usize, u: f64) -> [f64; 2] {
+        let p: [f64; 2] = std::array::from_fn(|a| {
+            let c = self.coef[i][a];
+            c[0] + u * (c[1] + u * (c[2] + u * c[3]))
+        });
+        let (dx, dy) = (p[0] - self.centre[0], p[1] - self.centre[1]);
+        let d = dx.hypot(dy);
+        let r = self.model.reach_m(u);
+        if d > r {
+            [self.centre[0] + dx * r / d, self.centre[1] + dy * r / d]
+        } else {
+            p
+        }
+    }
+
+    /// Particle `i`'s velocity `u` seconds after the start.
+    fn velocity(&self, i: usize, u: f64) -> [f64; 2] {
+        std::array::from_fn(|a| {
+            let c = self.coef[i][a];
+            c[1] + u * (2.0 * c[2] + u * 3.0 * c[3])
+        })
+    }
 }
 
 impl<'a> Propagator<'a> {
@@ -262,6 +338,12 @@ impl<'a> Propagator<'a> {
     /// at rest now that went on before).
     pub fn replays(&self) -> bool {
         self.replay.is_some()
+    }
+
+    /// Whether the particles may move although the model's speed is 0: they replay the
+    /// obstacle's past, or fly a young track's quadratic (which carries its acceleration).
+    pub fn moves(&self) -> bool {
+        self.replay.is_some() || self.young.is_some() || !self.speed.is_empty()
     }
 
     /// As [`Propagator::new`]; when the model has [`MotionModel::replay`] set and
@@ -298,6 +380,8 @@ impl<'a> Propagator<'a> {
                 next_decision_s: f64::INFINITY,
                 tables: Vec::new(),
                 replay: Some(rp),
+                speed: Vec::new(),
+                young: None,
             };
         }
         let dti = model.decision_interval_s;
@@ -319,6 +403,19 @@ impl<'a> Propagator<'a> {
             }
             (uy[i], ux[i]) = h.sin_cos();
         }
+        let young = model.young.map(|ym| {
+            let k = ((ym.share * n as f64).round() as usize).min(n);
+            let yp = YoungParticles::draw(&ym, k, rng);
+            for i in 0..k {
+                [x[i], y[i]] = yp.at(i, 0.0);
+            }
+            yp
+        });
+        let speed = if young.is_some() {
+            vec![model.speed_mps; n]
+        } else {
+            Vec::new()
+        };
         Self {
             model,
             x,
@@ -330,6 +427,8 @@ impl<'a> Propagator<'a> {
             next_decision_s: ((model.t_s / dti).floor() + 1.0) * dti,
             tables: Vec::new(),
             replay: None,
+            speed,
+            young,
         }
     }
 
@@ -357,7 +456,7 @@ impl<'a> Propagator<'a> {
                 } else {
                     (h, 0.5 * w * h * h)
                 };
-                [c, s, a * m.speed_mps, b * m.speed_mps]
+                [c, s, a, b]
             })
             .collect();
         if self.tables.len() >= 4 {
@@ -376,7 +475,38 @@ impl<'a> Propagator<'a> {
             }
             return;
         }
-        if self.model.speed_mps <= 0.0 {
+        let t_s = t_s.max(self.t_s);
+        if let Some(yp) = self.young.take() {
+            let m = self.model;
+            let t_end = m.t_s + yp.until_s;
+            if t_s <= t_end {
+                self.step(t_s, rng);
+                for i in 0..yp.coef.len() {
+                    [self.x[i], self.y[i]] = yp.at(i, t_s - m.t_s);
+                }
+                self.young = Some(yp);
+                return;
+            }
+            // The quadratic ends: each of its particles flies on at its own speed and
+            // heading.
+            self.step(t_end, rng);
+            let e = yp.until_s;
+            for i in 0..yp.coef.len() {
+                [self.x[i], self.y[i]] = yp.at(i, e);
+                let v = yp.velocity(i, e);
+                let sp = v[0].hypot(v[1]);
+                self.speed[i] = sp.min(yp.model.max_speed_mps);
+                if sp > 1e-9 {
+                    (self.ux[i], self.uy[i]) = (v[0] / sp, v[1] / sp);
+                }
+            }
+        }
+        self.step(t_s, rng);
+    }
+
+    /// Advances the stage model's particles (turns drawn every decision interval).
+    fn step<R: Rng + ?Sized>(&mut self, t_s: f64, rng: &mut R) {
+        if self.model.speed_mps <= 0.0 && self.speed.is_empty() {
             self.t_s = self.t_s.max(t_s);
             return;
         }
@@ -387,8 +517,11 @@ impl<'a> Propagator<'a> {
             let h = (h * 1e9).round() / 1e9;
             let ti = self.table(h);
             let tab = &self.tables[ti].1;
+            let v0 = self.model.speed_mps;
             for i in 0..self.x.len() {
                 let [c, s, a, b] = tab[self.level[i] as usize];
+                let v = self.speed.get(i).copied().unwrap_or(v0);
+                let (a, b) = (a * v, b * v);
                 let (ux, uy) = (self.ux[i], self.uy[i]);
                 self.x[i] += a * ux - b * uy;
                 self.y[i] += a * uy + b * ux;

@@ -476,6 +476,14 @@ fn refresh(ob: &mut Obstacle, cfg: &PredictorConfig, samples_changed: bool) {
                 max_speed_mps: ob.manoeuvres.max_speed_mps(&ob.track, &rc, 5.0),
             });
         }
+        // Too young for replay: the quadratic through its last seconds (crate::young).
+        if ob.model.lap.is_none()
+            && ob.model.replay.is_none()
+            && let Some(rc) = cfg.replay
+            && span < rc.min_history_s
+        {
+            ob.model.young = crate::young::fit(&ob.track, &rc, ob.model.speed_mps);
+        }
     }
 }
 

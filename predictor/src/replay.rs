@@ -33,8 +33,8 @@
 //! heading) are alike, and the particles' spread about their centre matches the truth's
 //! deviation from it. The displacements carry the obstacle's real speed, turning, bias and
 //! pattern, in the proportions it has shown. What replay cannot know is behaviour it has not
-//! yet shown; the stage models (random, advanced, memory) stand in until there is
-//! [`ReplayConfig::min_history_s`] of it.
+//! yet shown; until there is [`ReplayConfig::min_history_s`] of it, the stage models
+//! (random, advanced, memory) and a young track's quadratic ([`crate::young`]) stand in.
 //!
 //! Smooth flight: an obstacle flying a smooth curve (the judges' spline tours: each axis a
 //! cubic in time) is extrapolated far better by a quadratic in time fitted to its last
@@ -85,6 +85,20 @@ pub struct ReplayConfig {
     /// obstacle's own past, seconds, ascending; it is flown up to the last one it wins in
     /// a row from the first. Default 5, 10.
     pub smooth_horizons_s: [f64; 2],
+    /// While the track is younger than `min_history_s`, particles fly the quadratic through
+    /// its last `smooth_window_s` for this long, then turn as the stage model does
+    /// ([`crate::young`]); 0 disables. Seconds. Default 10.
+    pub young_horizon_s: f64,
+    /// Spread of a young particle's jerk per axis (what a quadratic leaves out), m/s^3.
+    /// Default 0.1.
+    pub young_jerk_mps3: f64,
+    /// Shortest watch a young quadratic is fitted to, seconds. Default 2.
+    pub young_min_span_s: f64,
+    /// Least standard deviation of a young fit's residuals per axis, metres. Default 0.5.
+    pub young_noise_floor_m: f64,
+    /// Share of a young track's particles that fly its quadratic; the others fly the stage
+    /// model from the start. Default 0.5.
+    pub young_share: f64,
 }
 
 impl Default for ReplayConfig {
@@ -99,6 +113,11 @@ impl Default for ReplayConfig {
             novelty: true,
             smooth_window_s: 8.0,
             smooth_horizons_s: [5.0, 10.0],
+            young_horizon_s: 10.0,
+            young_jerk_mps3: 0.1,
+            young_min_span_s: 2.0,
+            young_noise_floor_m: 0.5,
+            young_share: 0.5,
         }
     }
 }

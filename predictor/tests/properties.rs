@@ -322,6 +322,76 @@ fn an_out_and_back_obstacle_is_predicted_backward_along_its_own_track_after_turn
     }
 }
 
+/// A young track leaving a turn-back (the judges' two-waypoint tour of the test above,
+/// seen from its turn-back at t = 40 s for 8 s at 2 Hz with 1 m noise per axis: slow and
+/// speeding up, 6.5 m/s and 0.75 m/s^2 at the end). Replay needs 20 s of history, so the
+/// stage model alone would fly on at the present speed and fall behind; the young track's
+/// quadratic ([`predictor::young`]) carries the change of speed. Over seeded trials its 95%
+/// disc covers the truth in at least 88% of them at +3, +5 and +10 s, where the prediction
+/// without it (`young_horizon_s` 0) covers at most 70% at +10 s.
+#[test]
+fn a_young_track_speeding_up_out_of_a_turn_back_is_covered() {
+    use rand_distr::{Distribution, Normal};
+    let truth = |t: f64| {
+        let x = 300.0 * (2.0 * std::f64::consts::PI * (t - 10.0) / 120.0).sin();
+        [1000.0 + 0.6 * x, 2000.0 - 0.8 * x]
+    };
+    let noise = Normal::new(0.0, 1.0).unwrap();
+    let trials = 60u32;
+    for h in [3.0, 5.0, 10.0] {
+        let (mut hits, mut hits_without, mut r_with) = (0, 0, 0.0);
+        for seed in 0..trials {
+            let mut with = Predictor::new(PredictorConfig::default());
+            let mut without = Predictor::new(PredictorConfig {
+                replay: Some(ReplayConfig {
+                    young_horizon_s: 0.0,
+                    ..ReplayConfig::default()
+                }),
+                ..PredictorConfig::default()
+            });
+            let mut nrng = ChaCha8Rng::seed_from_u64(300 + u64::from(seed));
+            for k in 0..=16 {
+                let t = 40.0 + f64::from(k) * 0.5;
+                let [x, y] = truth(t);
+                let o = predictor::Observation {
+                    t_s: t,
+                    p_m: [x + noise.sample(&mut nrng), y + noise.sample(&mut nrng)],
+                    alt_m: 100.0,
+                    radius_m: 10.0,
+                };
+                with.observe("0", o);
+                without.observe("0", o);
+            }
+            let m = with.model("0").unwrap();
+            assert!(
+                m.young.is_some() && m.replay.is_none(),
+                "seed {seed}: {m:?}"
+            );
+            assert!(without.model("0").unwrap().young.is_none());
+            let t = truth(48.0 + h);
+            let mut rng = ChaCha8Rng::seed_from_u64(u64::from(seed));
+            let (mean, r95) = disc95(&with.sample_future("0", h, 1000, &mut rng).unwrap());
+            if (t[0] - mean[0]).hypot(t[1] - mean[1]) <= r95 {
+                hits += 1;
+            }
+            r_with += r95 / f64::from(trials);
+            let (mean, r95) = disc95(&without.sample_future("0", h, 1000, &mut rng).unwrap());
+            if (t[0] - mean[0]).hypot(t[1] - mean[1]) <= r95 {
+                hits_without += 1;
+            }
+        }
+        let c = f64::from(hits) / f64::from(trials);
+        let c_without = f64::from(hits_without) / f64::from(trials);
+        eprintln!(
+            "young, speeding up +{h} s: coverage {c} (without {c_without}), r95 {r_with:.1} m"
+        );
+        assert!(c >= 0.88, "+{h} s coverage {c}");
+        if h >= 10.0 {
+            assert!(c_without <= 0.7, "+{h} s coverage without {c_without}");
+        }
+    }
+}
+
 /// A closed tour flown again and again (a periodic, non-circular curve, 90 s a lap, 1-24
 /// m/s), seen at 2 Hz with 1 m noise per axis for 150 s, so one lap is recognized
 /// ([`predictor::LapKind::Repeat`]) and predicts the next from the observed one. The

@@ -81,7 +81,7 @@ impl RiskMap {
                 for z in &lap_z {
                     self.add_particle(at.particle(*z), 1);
                 }
-            } else if o.model.speed_mps <= 0.0 && !prop.replays() {
+            } else if o.model.speed_mps <= 0.0 && !prop.moves() {
                 self.add_particle(o.model.position_m, all);
             } else {
                 prop.advance_to(tk, &mut rng);
