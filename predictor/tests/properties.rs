@@ -243,6 +243,32 @@ fn replayed_predictions_cover_zigzag_turners_from_noisy_telemetry() {
     assert_auto_covers_and_is_sharper(Behaviour::Zigzag { w: w15() });
 }
 
+/// The judges' two-waypoint tour (a line, slowing to a stop at each end): 300 m either
+/// side of its centre every 120 s, 15.7 m/s at the centre, turning back at t = 40 s.
+fn out_and_back(t: f64) -> [f64; 2] {
+    let x = 300.0 * (2.0 * std::f64::consts::PI * (t - 10.0) / 120.0).sin();
+    [1000.0 + 0.6 * x, 2000.0 - 0.8 * x]
+}
+
+/// [`out_and_back`] seen at 2 Hz with 1 m noise per axis, `n + 1` observations from `t0`.
+fn out_and_back_seen(t0: f64, n: u32, seed: u64) -> Vec<predictor::Observation> {
+    use rand_distr::{Distribution, Normal};
+    let noise = Normal::new(0.0, 1.0).unwrap();
+    let mut nrng = ChaCha8Rng::seed_from_u64(seed);
+    (0..=n)
+        .map(|k| {
+            let t = t0 + f64::from(k) * 0.5;
+            let [x, y] = out_and_back(t);
+            predictor::Observation {
+                t_s: t,
+                p_m: [x + noise.sample(&mut nrng), y + noise.sample(&mut nrng)],
+                alt_m: 100.0,
+                radius_m: 10.0,
+            }
+        })
+        .collect()
+}
+
 /// An out-and-back obstacle (the judges' two-waypoint tour: a line, slowing to a stop at each
 /// end), 300 m either side of its centre every 120 s (15.7 m/s at the centre), turning back
 /// at t = 40 s, seen at 2 Hz with 1 m noise per axis for 65 s (25 s after the turn-back).
@@ -253,12 +279,7 @@ fn replayed_predictions_cover_zigzag_turners_from_noisy_telemetry() {
 /// obstacle will come back the way it went).
 #[test]
 fn an_out_and_back_obstacle_is_predicted_backward_along_its_own_track_after_turning_back() {
-    use rand_distr::{Distribution, Normal};
-    let truth = |t: f64| {
-        let x = 300.0 * (2.0 * std::f64::consts::PI * (t - 10.0) / 120.0).sin();
-        [1000.0 + 0.6 * x, 2000.0 - 0.8 * x]
-    };
-    let noise = Normal::new(0.0, 1.0).unwrap();
+    let truth = out_and_back;
     let trials = 40u32;
     for h in [5.0, 12.0] {
         let (mut hits, mut r_with, mut r_without, mut r_smooth) = (0, 0.0, 0.0, 0.0);
@@ -276,16 +297,7 @@ fn an_out_and_back_obstacle_is_predicted_backward_along_its_own_track_after_turn
                 periodic: None,
                 ..PredictorConfig::default()
             });
-            let mut nrng = ChaCha8Rng::seed_from_u64(900 + u64::from(seed));
-            for k in 0..=130 {
-                let t = f64::from(k) * 0.5;
-                let [x, y] = truth(t);
-                let o = predictor::Observation {
-                    t_s: t,
-                    p_m: [x + noise.sample(&mut nrng), y + noise.sample(&mut nrng)],
-                    alt_m: 100.0,
-                    radius_m: 10.0,
-                };
+            for o in out_and_back_seen(0.0, 130, 900 + u64::from(seed)) {
                 with.observe("0", o);
                 without.observe("0", o);
                 smooth.observe("0", o);
@@ -331,12 +343,7 @@ fn an_out_and_back_obstacle_is_predicted_backward_along_its_own_track_after_turn
 /// without it (`young_horizon_s` 0) covers at most 70% at +10 s.
 #[test]
 fn a_young_track_speeding_up_out_of_a_turn_back_is_covered() {
-    use rand_distr::{Distribution, Normal};
-    let truth = |t: f64| {
-        let x = 300.0 * (2.0 * std::f64::consts::PI * (t - 10.0) / 120.0).sin();
-        [1000.0 + 0.6 * x, 2000.0 - 0.8 * x]
-    };
-    let noise = Normal::new(0.0, 1.0).unwrap();
+    let truth = out_and_back;
     let trials = 60u32;
     for h in [3.0, 5.0, 10.0] {
         let (mut hits, mut hits_without, mut r_with) = (0, 0, 0.0);
@@ -349,16 +356,7 @@ fn a_young_track_speeding_up_out_of_a_turn_back_is_covered() {
                 }),
                 ..PredictorConfig::default()
             });
-            let mut nrng = ChaCha8Rng::seed_from_u64(300 + u64::from(seed));
-            for k in 0..=16 {
-                let t = 40.0 + f64::from(k) * 0.5;
-                let [x, y] = truth(t);
-                let o = predictor::Observation {
-                    t_s: t,
-                    p_m: [x + noise.sample(&mut nrng), y + noise.sample(&mut nrng)],
-                    alt_m: 100.0,
-                    radius_m: 10.0,
-                };
+            for o in out_and_back_seen(40.0, 16, 300 + u64::from(seed)) {
                 with.observe("0", o);
                 without.observe("0", o);
             }
