@@ -271,7 +271,6 @@ pub struct Propagator<'a> {
 #[derive(Debug, Clone)]
 struct YoungParticles {
     coef: Vec<[[f64; 4]; 2]>,
-    until_s: f64,
     centre: [f64; 2],
     model: YoungModel,
 }
@@ -295,23 +294,25 @@ impl YoungParticles {
             .collect();
         Self {
             coef,
-            until_s: y.until_s,
             centre: y.at(0.0),
             model: *y,
         }
     }
 
-    /// Particle `i`'s position `u` seconds after the start, within the model's reach.
-    fn at(&self, i: usize, u: f64) -> [f64; 2] {
+    /// Particle `i`'s position `u` seconds after the start, within `reach`
+    /// ([`YoungModel::reach_m`] at `u`) of the fit's start.
+    fn at(&self, i: usize, u: f64, reach: f64) -> [f64; 2] {
         let p: [f64; 2] = std::array::from_fn(|a| {
             let c = self.coef[i][a];
             c[0] + u * (c[1] + u * (c[2] + u * c[3]))
         });
         let (dx, dy) = (p[0] - self.centre[0], p[1] - self.centre[1]);
         let d = dx.hypot(dy);
-        let r = self.model.reach_m(u);
-        if d > r {
-            [self.centre[0] + dx * r / d, self.centre[1] + dy * r / d]
+        if d > reach {
+            [
+                self.centre[0] + dx * reach / d,
+                self.centre[1] + dy * reach / d,
+            ]
         } else {
             p
         }
@@ -331,13 +332,6 @@ impl<'a> Propagator<'a> {
     /// decision interval.
     pub fn new<R: Rng + ?Sized>(model: &'a MotionModel, n: usize, rng: &mut R) -> Self {
         Self::with_replay(model, None, n, rng)
-    }
-
-    /// Whether the particles replay the obstacle's own past ([`crate::replay`]) rather
-    /// than draw turn rates: they then move even when the model's speed is 0 (an obstacle
-    /// at rest now that went on before).
-    pub fn replays(&self) -> bool {
-        self.replay.is_some()
     }
 
     /// Whether the particles may move although the model's speed is 0: they replay the
@@ -406,8 +400,9 @@ impl<'a> Propagator<'a> {
         let young = model.young.map(|ym| {
             let k = ((ym.share * n as f64).round() as usize).min(n);
             let yp = YoungParticles::draw(&ym, k, rng);
+            let reach = ym.reach_m(0.0);
             for i in 0..k {
-                [x[i], y[i]] = yp.at(i, 0.0);
+                [x[i], y[i]] = yp.at(i, 0.0, reach);
             }
             yp
         });
@@ -478,11 +473,12 @@ impl<'a> Propagator<'a> {
         let t_s = t_s.max(self.t_s);
         if let Some(yp) = self.young.take() {
             let m = self.model;
-            let t_end = m.t_s + yp.until_s;
+            let t_end = m.t_s + yp.model.until_s;
             if t_s <= t_end {
                 self.step(t_s, rng);
+                let reach = yp.model.reach_m(t_s - m.t_s);
                 for i in 0..yp.coef.len() {
-                    [self.x[i], self.y[i]] = yp.at(i, t_s - m.t_s);
+                    [self.x[i], self.y[i]] = yp.at(i, t_s - m.t_s, reach);
                 }
                 self.young = Some(yp);
                 return;
@@ -490,9 +486,10 @@ impl<'a> Propagator<'a> {
             // The quadratic ends: each of its particles flies on at its own speed and
             // heading.
             self.step(t_end, rng);
-            let e = yp.until_s;
+            let e = yp.model.until_s;
+            let reach = yp.model.reach_m(e);
             for i in 0..yp.coef.len() {
-                [self.x[i], self.y[i]] = yp.at(i, e);
+                [self.x[i], self.y[i]] = yp.at(i, e, reach);
                 let v = yp.velocity(i, e);
                 let sp = v[0].hypot(v[1]);
                 self.speed[i] = sp.min(yp.model.max_speed_mps);
