@@ -62,7 +62,9 @@ pub use plan::{
 pub use replan::{
     Dynamic, DynamicSeen, LiveMap, Replan, ReplanConfig, Replanned, SeenObstacle, live_map, replan,
 };
-pub use revisit::{Captured, Missed, TrackPoint, captured_on_the_way, missed_waypoint};
+pub use revisit::{
+    Captured, Missed, Pass, TrackPoint, Watch, captured_on_the_way, judge_pass, missed_waypoint,
+};
 pub use stack::{ItemKind, StackDiff, StackItem, diff, next_fixed};
 pub use termination::Termination;
 pub use verify::{Conflict, Rival, Verification, VerifyParams, verify_route, verify_route_to_beat};

@@ -31,7 +31,12 @@
 //!   aircraft that switched 38 m short, heading past the waypoint as it turned away for
 //!   the next one, for a capture 26 m off; it went by 31.4 m off (Webster Field, spline
 //!   seed 193).
-//! - Pure: the same stack, index and track give the same answer.
+//! - The flight ahead is a forecast made before the plan, which may change the item the
+//!   autopilot flies to. A pass only it would capture is watched ([`judge_pass`],
+//!   [`Watch`]): judged again at the next plans with the newer track, while the item
+//!   stays the one before the current index, the flight ahead counting until
+//!   [`ANTICIPATE_S`] after the first verdict's newest sample and the track alone after.
+//! - Pure: the same stack, index, track (and watch) give the same answer.
 //!
 //! # Units
 //! ENU metres, metres MSL, seconds.
@@ -80,7 +85,8 @@ pub struct Missed {
 /// target, seconds on the track's clock) and `track` (time order, oldest first, from then
 /// on) shows the aircraft went by it farther than the judges' capture distance (see the
 /// module docs for every condition). `turn_radius_m` is the aircraft's (0: the flight
-/// ahead is taken straight).
+/// ahead is taken straight). A pass the flight ahead may yet capture is `None` here;
+/// [`judge_pass`] watches it over the next plans.
 pub fn missed_waypoint(
     stack: &[StackItem],
     current_index: usize,
@@ -88,34 +94,111 @@ pub fn missed_waypoint(
     track: &[TrackPoint],
     turn_radius_m: f64,
 ) -> Option<Missed> {
+    match judge_pass(
+        stack,
+        current_index,
+        Some(pursued),
+        None,
+        track,
+        turn_radius_m,
+    ) {
+        Some(Pass::Missed(m)) => Some(m),
+        _ => None,
+    }
+}
+
+/// A mission waypoint the autopilot has gone past, which the track has not captured but
+/// the flight ahead of it still may: judged again at the next plans until `until_s`, and
+/// then on the track alone ([`judge_pass`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Watch {
+    /// Its index in the stack (the item before the current one while it is watched).
+    pub stack_index: usize,
+    /// Since when it was the target, seconds on the track's clock.
+    pub since_s: f64,
+    /// Until when the flight ahead counts, seconds on the track's clock: the first verdict's
+    /// newest sample plus [`ANTICIPATE_S`] (the flight ahead it read).
+    pub until_s: f64,
+}
+
+/// What the track says of the mission waypoint the autopilot has just gone past.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pass {
+    /// Passed wider than the judges' capture distance, along the track and the flight ahead
+    /// (ahead only while the watch lasts): fly it again.
+    Missed(Missed),
+    /// Not captured along the track, but the flight ahead comes within the capture distance:
+    /// judged again at the next plan, with this watch.
+    Watch(Watch),
+}
+
+/// The verdict on the mission waypoint just passed (`stack[current_index - 1]`), judged the
+/// way [`missed_waypoint`] judges it, for a caller that keeps `watch` between plans: the
+/// waypoint under `watch`, when it is still the item before the current one, or else the
+/// item `pursued` at the last plan. The flight ahead of the track's newest sample (the
+/// autopilot's turn for the item it now flies to, [`ANTICIPATE_S`]) counts only until the
+/// watch ends: a pass it alone would capture is watched, not missed, and the verdict
+/// comes with the next track. It is a forecast made before the plan that may change the
+/// item the autopilot flies to: on Webster Field (spline seed 124) the turn for an avoid
+/// item 190 m north would have passed 18 m from waypoint 2, the plan then sent the
+/// aircraft south-west, and the waypoint, gone past 40 m off, was never flown again.
+/// `None`: nothing to judge (no such waypoint, see the module docs) or captured.
+pub fn judge_pass(
+    stack: &[StackItem],
+    current_index: usize,
+    pursued: Option<(usize, f64)>,
+    watch: Option<Watch>,
+    track: &[TrackPoint],
+    turn_radius_m: f64,
+) -> Option<Pass> {
     let k = current_index.checked_sub(1)?;
+    let (since, until) = match watch.filter(|w| w.stack_index == k) {
+        Some(w) => (w.since_s, Some(w.until_s)),
+        None => (pursued.filter(|p| p.0 == k)?.1, None),
+    };
     let item = stack.get(k)?;
     let mission_index = item.mission_index?;
     let same =
         |i: &StackItem| i.kind == ItemKind::Mission && i.mission_index == Some(mission_index);
     let planned_again = stack[k + 1..].iter().any(same);
     let passes = stack[..=k].iter().filter(|i| same(i)).count();
-    if item.kind != ItemKind::Mission || pursued.0 != k || planned_again || passes >= MAX_PASSES {
+    if item.kind != ItemKind::Mission || planned_again || passes >= MAX_PASSES {
         return None;
     }
     let [first, .., before, last] = track else {
         return None;
     };
-    if first.t_s > pursued.1 + TRACK_GAP_S {
+    if first.t_s > since + TRACK_GAP_S {
         return None;
     }
-    // Flown, and ahead: an aircraft still closing in may yet come within the capture
-    // distance.
-    let next = stack.get(current_index).map(|i| i.p_m);
-    let closest_m = track
+    let flown_m = track
         .windows(2)
         .map(|w| distance_m(&w[0], &w[1], item, 1.0))
-        .fold(ahead_m(before, last, item, next, turn_radius_m), f64::min);
-    (closest_m.is_finite() && closest_m > JUDGE_CAPTURE_M).then_some(Missed {
+        .fold(f64::INFINITY, f64::min);
+    if !flown_m.is_finite() || flown_m <= JUDGE_CAPTURE_M {
+        return None;
+    }
+    let until_s = until.unwrap_or(last.t_s + ANTICIPATE_S);
+    // Ahead, while the watch lasts: an aircraft still closing in may yet come within the
+    // capture distance.
+    let next = stack.get(current_index).map(|i| i.p_m);
+    let ahead = if last.t_s < until_s {
+        ahead_m(before, last, item, next, turn_radius_m)
+    } else {
+        f64::INFINITY
+    };
+    if ahead <= JUDGE_CAPTURE_M {
+        return Some(Pass::Watch(Watch {
+            stack_index: k,
+            since_s: since,
+            until_s,
+        }));
+    }
+    Some(Pass::Missed(Missed {
         stack_index: k,
         mission_index,
-        closest_m,
-    })
+        closest_m: flown_m.min(ahead),
+    }))
 }
 
 /// Within this distance of the aircraft's track (three dimensions) a mission waypoint
@@ -423,6 +506,68 @@ mod tests {
         assert_eq!(last.len(), 3);
         assert_eq!(last[2], stack()[1]);
         assert_eq!(with_revisit(&stack(), 0), None);
+    }
+
+    #[test]
+    fn a_pass_the_flight_ahead_may_yet_capture_is_watched_then_judged_on_the_track() {
+        // 35 m west of waypoint 0 and 20 m short, heading north: the track has not captured
+        // it (40.3 m at its closest), the turn for the next item, to the north-east, would.
+        let toward = vec![
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::mission(1, [200.0, 200.0], 100.0),
+        ];
+        let track = north(-35.0, -20.0);
+        let last = track.last().expect("a track").t_s;
+        let Some(Pass::Watch(w)) = judge_pass(&toward, 1, Some((0, 0.0)), None, &track, 35.0)
+        else {
+            panic!("watched");
+        };
+        assert_eq!(w.stack_index, 0);
+        assert_eq!((w.since_s, w.until_s), (0.0, last + ANTICIPATE_S));
+        // `missed_waypoint` says nothing yet, as before the watch.
+        assert_eq!(missed_waypoint(&toward, 1, (0, 0.0), &track, 35.0), None);
+        // A second later: the plan sent the aircraft west (the item it now flies to is far
+        // to the west-south-west), and it flew west: missed, judged under the watch even
+        // though the item pursued at the last plan is now the next one.
+        let mut west = track.clone();
+        west.extend((1..=5).map(|k| TrackPoint {
+            t_s: last + 0.2 * f64::from(k),
+            p_m: [-35.0 - 4.0 * f64::from(k), -20.0],
+            alt_m: 100.0,
+        }));
+        let away = vec![
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::avoid([-250.0, -100.0], 100.0),
+            StackItem::mission(1, [200.0, 200.0], 100.0),
+        ];
+        let Some(Pass::Missed(m)) = judge_pass(&away, 1, Some((2, last)), Some(w), &west, 35.0)
+        else {
+            panic!("missed");
+        };
+        assert_eq!((m.stack_index, m.mission_index), (0, 0));
+        assert!((m.closest_m - 35f64.hypot(20.0)).abs() < 1e-9, "{m:?}");
+        // Without the watch that pass is not judged: it is not the item pursued.
+        assert_eq!(
+            judge_pass(&away, 1, Some((2, last)), None, &west, 35.0),
+            None
+        );
+        // Turned for it instead, within 11 m of it: captured, the watch ends.
+        let mut back = track.clone();
+        back.push(TrackPoint {
+            t_s: last + 1.0,
+            p_m: [-10.0, 5.0],
+            alt_m: 100.0,
+        });
+        assert_eq!(judge_pass(&toward, 1, None, Some(w), &back, 35.0), None);
+        // Once the watch is over, the flight ahead no longer counts: the same track that
+        // was watched is now a miss.
+        let over = Watch { until_s: last, ..w };
+        assert!(matches!(
+            judge_pass(&toward, 1, None, Some(over), &track, 35.0),
+            Some(Pass::Missed(_))
+        ));
+        // A watch on another item (the autopilot went past one more since): not judged.
+        assert_eq!(judge_pass(&toward, 2, None, Some(w), &track, 35.0), None);
     }
 
     /// An avoid item, then mission waypoint 0 at the origin, then waypoint 1.

@@ -110,6 +110,10 @@ pub struct PlanInputs {
     /// The mission waypoint ahead captured on the way, skipped by this plan with the avoid
     /// items before it ([`planner::Replan::captured`]; found from the track when the plan was asked).
     pub captured: Option<planner::Captured>,
+    /// The mission waypoint just passed that only the flight ahead would still capture
+    /// ([`planner::Watch`]): not flown again by this plan, judged again at the next one with
+    /// the newer telemetry.
+    pub watch: Option<planner::Watch>,
 }
 
 /// The mission's own waypoints as a stack.

@@ -79,6 +79,21 @@ pub struct InputsRecord {
     /// plans stored before the skip).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub captured: Option<StoredMissed>,
+    /// The waypoint just passed that the flight ahead may yet capture, judged again at the
+    /// next plan (absent: none, as in plans stored before the watch).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub watch: Option<StoredWatch>,
+}
+
+/// The stored form of [`planner::Watch`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct StoredWatch {
+    /// Its index in the base stack.
+    pub stack_index: usize,
+    /// Since when it was the target, seconds on the start's clock.
+    pub since_s: f64,
+    /// Until when the flight ahead counts, seconds on the start's clock.
+    pub until_s: f64,
 }
 
 /// The stored form of [`planner::Missed`] (and of [`planner::Captured`], the same three
@@ -199,6 +214,11 @@ impl InputsRecord {
                 mission_index: c.mission_index,
                 closest_m: c.closest_m,
             }),
+            watch: inputs.watch.map(|w| StoredWatch {
+                stack_index: w.stack_index,
+                since_s: w.since_s,
+                until_s: w.until_s,
+            }),
         }
     }
 
@@ -260,6 +280,11 @@ impl InputsRecord {
                 stack_index: c.stack_index,
                 mission_index: c.mission_index,
                 closest_m: c.closest_m,
+            }),
+            watch: self.watch.map(|w| planner::Watch {
+                stack_index: w.stack_index,
+                since_s: w.since_s,
+                until_s: w.until_s,
             }),
         })
     }
@@ -437,6 +462,7 @@ mod tests {
             target_since_s: None,
             revisit: None,
             captured: None,
+            watch: None,
         }
     }
 
@@ -523,6 +549,11 @@ mod tests {
                 mission_index: 1,
                 closest_m: 12.5,
             }),
+            watch: Some(planner::Watch {
+                stack_index: 1,
+                since_s: 1_781_449_150.5,
+                until_s: 1_781_449_205.75,
+            }),
             ..expected(Observations::Through(9))
         };
         let text = InputsRecord::of(&inputs).to_json().unwrap();
@@ -543,6 +574,10 @@ mod tests {
             v["captured"],
             json!({"stack_index": 2, "mission_index": 1, "closest_m": 12.5})
         );
+        assert_eq!(
+            v["watch"],
+            json!({"stack_index": 1, "since_s": 1_781_449_150.5, "until_s": 1_781_449_205.75})
+        );
         assert_eq!(stored_inputs(&row(&text)).unwrap(), inputs);
         let plain = InputsRecord::of(&expected(Observations::Through(9)))
             .to_json()
@@ -553,6 +588,7 @@ mod tests {
                 && !plain.contains("acceptance")
                 && !plain.contains("revisit")
                 && !plain.contains("captured")
+                && !plain.contains("watch")
         );
     }
 

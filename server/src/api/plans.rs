@@ -315,6 +315,7 @@ async fn create_plan(
     // The base revision's stack, current index and pursuit of its next fixed item (the
     // item's index in that stack and since when it has been the target).
     let mut base_shown_bank = None;
+    let mut base_watch = None;
     let (stack, base_current, base_target) = if base_revision == 0 {
         (Vec::new(), 0, None)
     } else {
@@ -328,6 +329,7 @@ async fn create_plan(
         let base_inputs = stored_inputs(&row)?;
         let target = next_fixed(&stack, 0, out.current_index).zip(base_inputs.target_since_s);
         base_shown_bank = base_inputs.shown_bank_deg;
+        base_watch = base_inputs.watch;
         (stack, out.current_index, target)
     };
     let stack_len = if stack.is_empty() {
@@ -419,30 +421,42 @@ async fn create_plan(
     // when the mission's own waypoints became the target), and what the track since says
     // of it: passed too wide just now (flown again), or captured on the way to an avoid
     // item before it, still the next fixed item (skipped: the judges count it, the
-    // autopilot switches only at the item it flies toward). The track is read only when
-    // the autopilot has just gone past that waypoint, or while an avoid item before it is
-    // the target.
-    let (mut revisit, mut captured) = (None, None);
-    if let Some((k, since)) = base_target {
-        let passed = body.revisit_missed.unwrap_or(true) && current_index == k + 1;
-        let behind = body.skip_captured.unwrap_or(true) && next == Some(k) && k > current_index;
-        if passed || behind {
-            let track = state
-                .store
-                .list_telemetry_since(&id, since - planner::revisit::TRACK_GAP_S, REVISIT_SAMPLES)
-                .await?;
-            let (base, track) = enu_track(&mission, &stack, &track);
-            if passed {
-                revisit = planner::missed_waypoint(
-                    &base,
-                    current_index,
-                    (k, since),
-                    &track,
-                    turn_radius_m,
-                );
-            } else {
-                captured = planner::captured_on_the_way(&base, current_index, (k, since), &track);
+    // autopilot switches only at the item it flies toward). A waypoint passed that only the
+    // flight ahead would capture is watched: the base revision keeps it and this plan
+    // judges it again (planner::judge_pass). The track is read only when the autopilot has
+    // just gone past that waypoint, while it is watched, or while an avoid item before it
+    // is the target.
+    let (mut revisit, mut captured, mut watch) = (None, None, None);
+    let revisit_on = body.revisit_missed.unwrap_or(true);
+    let base_watch = base_watch.filter(|w| revisit_on && current_index == w.stack_index + 1);
+    let pursued = base_target.filter(|&(k, _)| revisit_on && current_index == k + 1);
+    let behind = base_target.filter(|&(k, _)| {
+        body.skip_captured.unwrap_or(true) && next == Some(k) && k > current_index
+    });
+    let since = base_watch
+        .map(|w| w.since_s)
+        .or(pursued.or(behind).map(|(_, s)| s));
+    if let Some(since) = since {
+        let track = state
+            .store
+            .list_telemetry_since(&id, since - planner::revisit::TRACK_GAP_S, REVISIT_SAMPLES)
+            .await?;
+        let (base, track) = enu_track(&mission, &stack, &track);
+        if pursued.is_some() || base_watch.is_some() {
+            match planner::judge_pass(
+                &base,
+                current_index,
+                pursued,
+                base_watch,
+                &track,
+                turn_radius_m,
+            ) {
+                Some(planner::Pass::Missed(m)) => revisit = Some(m),
+                Some(planner::Pass::Watch(w)) => watch = Some(w),
+                None => {}
             }
+        } else if let Some(pursued) = behind {
+            captured = planner::captured_on_the_way(&base, current_index, pursued, &track);
         }
     }
     let max_age = body.max_map_age_ms.map(std::time::Duration::from_millis);
@@ -467,6 +481,7 @@ async fn create_plan(
         target_since_s,
         revisit,
         captured,
+        watch,
     };
     let (m2, in2) = (mission.clone(), inputs.clone());
     let cancel = CancelOnDrop::default();

@@ -209,6 +209,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
         target_since_s: None,
         revisit: None,
         captured: None,
+        watch: None,
     };
     let computed = match compute(&m, &inputs, &snap, None) {
         Ok(c) => c,

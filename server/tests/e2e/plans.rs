@@ -19,6 +19,7 @@ both_stores!(
     a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows,
     without_a_turn_radius_the_plan_turns_at_the_bank_the_telemetry_has_shown,
     a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice,
+    a_pass_the_turn_ahead_may_capture_is_judged_again_at_the_next_plan,
     a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped,
 );
 
@@ -1019,6 +1020,65 @@ async fn a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice(app: A
         &off["waypoints"][next_mission_item(&off, k + 1)],
         &wp
     ));
+}
+
+/// The autopilot went past the waypoint the last plan pursued 35 m west of it and 20 m
+/// short (40.3 m at the closest), heading north, with the next waypoint to the south-east:
+/// the turn for it (35 m radius) would capture the waypoint, so the next plan does not fly
+/// it again but keeps it under watch (`planner::Watch`, stored with the plan). The aircraft
+/// then flew west instead: the plan after that flies it again (`waypoint_revisited`,
+/// 40.3 m). Without the watch that pass was never judged again (Webster Field, spline
+/// seed 124, a waypoint lost).
+async fn a_pass_the_turn_ahead_may_capture_is_judged_again_at_the_next_plan(app: App) {
+    let (id, wp) = webster_waypoint_1(&app).await;
+    let radius = json!({"turn_radius_m": 35.0});
+    fly_past(&app, &id, &wp, -35.0, T0, 0..=0).await;
+    let p1 = plan(
+        &app,
+        &id,
+        json!({"seed": 1, "current_index": 1, "aircraft": radius}),
+    )
+    .await;
+    let k = next_mission_item(&p1, 1);
+    assert_eq!(p1["waypoints"][k]["mission_index"], 1, "{p1}");
+    // North up to 20 m short of it: the autopilot switched to the next item.
+    fly_past(&app, &id, &wp, -35.0, T0, 1..=70).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": k + 1, "aircraft": radius});
+    let p2 = plan(&app, &id, body).await;
+    assert_eq!(
+        warning(&p2, "waypoint_revisited"),
+        None,
+        "the turn ahead may yet capture it: {}",
+        p2["warnings"]
+    );
+    assert_eq!(
+        p2["waypoints"][next_mission_item(&p2, k + 1)]["mission_index"],
+        2,
+        "{p2}"
+    );
+    // Then one second west, away from it.
+    let (lat, lon, alt) = (num(&wp, "/lat"), num(&wp, "/lon"), num(&wp, "/alt_msl_m"));
+    let m_lat = 111_132.9 - 559.8 * (2.0 * lat.to_radians()).cos();
+    let m_lon = 111_412.8 * lat.to_radians().cos();
+    let west: Vec<Value> = (1..=5)
+        .map(|j| {
+            let east = -35.0 - 4.0 * f64::from(j);
+            json!({"t": T0 + 14.0 + 0.2 * f64::from(j), "lat": lat - 20.0 / m_lat,
+                   "lon": lon + east / m_lon, "alt_msl_m": alt, "heading_deg": 270.0,
+                   "speed_mps": 20.0})
+        })
+        .collect();
+    let r = app
+        .post_json(&format!("/api/v1/missions/{id}/telemetry"), &json!(west))
+        .await;
+    assert_eq!(r.status(), 202);
+    let body = json!({"seed": 3, "base_revision": 2, "current_index": k + 1, "aircraft": radius});
+    let p3 = plan(&app, &id, body).await;
+    let passed = passed_at(&p3, "waypoint_revisited");
+    assert!((passed - 35f64.hypot(20.0)).abs() < 0.5, "{passed}");
+    let copy = next_mission_item(&p3, k + 1);
+    assert_eq!(p3["waypoints"][copy]["mission_index"], 1, "{p3}");
+    assert_replays_identically(&app, &id, &p3).await;
 }
 
 /// The aircraft went past the waypoint the last plan pursued 15 m off while the autopilot

@@ -237,6 +237,9 @@ impl StrategyKind {
 pub struct TargetClock {
     /// The next fixed item (its position, bit for bit) and since when, mission seconds.
     target: Option<([u64; 2], f64)>,
+    /// A waypoint passed that the flight ahead may yet capture ([`planner::Watch`]), with its
+    /// position bit for bit: judged again at the next call.
+    watch: Option<([u64; 2], planner::Watch)>,
 }
 
 fn position_bits(i: &planner::StackItem) -> [u64; 2] {
@@ -259,23 +262,35 @@ impl TargetClock {
     }
 
     /// The mission waypoint `view`'s autopilot has just gone past too wide
-    /// ([`planner::missed_waypoint`]): the item before the current one, when it was the
-    /// target at the last call, and the track since it became the target. Call before
-    /// [`TargetClock::pending_s`].
-    pub fn missed(&self, view: &View<'_>) -> Option<planner::Missed> {
-        let (bits, since) = self.target?;
+    /// ([`planner::judge_pass`]): the item before the current one, when it was the target
+    /// at the last call or is under watch, and the track since it became the target. A pass
+    /// only the flight ahead would capture is watched and judged again at the next call, as
+    /// the server keeps it in the plan it stores. Call before [`TargetClock::pending_s`].
+    pub fn missed(&mut self, view: &View<'_>) -> Option<planner::Missed> {
         let k = view.stack.current.checked_sub(1)?;
-        if position_bits(view.stack.items.get(k)?) != bits {
-            return None;
-        }
+        let bits = position_bits(view.stack.items.get(k)?);
+        let watch = self
+            .watch
+            .take()
+            .filter(|(b, w)| *b == bits && w.stack_index == k)
+            .map(|(_, w)| w);
+        let pursued = self.target.filter(|(b, _)| *b == bits).map(|(_, s)| (k, s));
+        let since = watch.map(|w| w.since_s).or(pursued.map(|p| p.1))?;
         let track = track_since(view, since);
-        planner::missed_waypoint(
+        match planner::judge_pass(
             &view.stack.items,
             view.stack.current,
-            (k, since),
+            pursued,
+            watch,
             &track,
             view.aircraft.planner_aircraft().turn_radius_m,
-        )
+        )? {
+            planner::Pass::Missed(m) => Some(m),
+            planner::Pass::Watch(w) => {
+                self.watch = Some((bits, w));
+                None
+            }
+        }
     }
 
     /// The mission waypoint ahead that `view`'s aircraft captured on its way to an avoid
@@ -509,6 +524,57 @@ mod tests {
         // Once the clock has moved on to waypoint 1, waypoint 0 is no longer its business.
         assert_eq!(clock.pending_s(&v1), Some(0.0));
         assert_eq!(clock.missed(&v1), None);
+    }
+
+    #[test]
+    fn the_clock_watches_a_pass_the_flight_ahead_may_capture_and_flags_it_once_flown_away() {
+        let mission = Mission::default();
+        let aircraft = AircraftParams::default();
+        assert!(aircraft.planner_aircraft().turn_radius_m > 20.0);
+        // Waypoint 0 at the origin, the next item far to the north-east: northward 35 m
+        // west of it, the autopilot switches 20 m short; the turn for the next item would
+        // capture it.
+        let ne = vec![
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::mission(1, [400.0, 400.0], 100.0),
+        ];
+        let mut track: Vec<(f64, [f64; 3])> = (0..=45)
+            .map(|k| {
+                let k = f64::from(k);
+                (0.2 * k, [-35.0, -200.0 + 4.0 * k, 100.0])
+            })
+            .collect();
+        let mut clock = TargetClock::default();
+        let before = Stack {
+            items: ne.clone(),
+            current: 0,
+        };
+        let v0 = view(0.0, &before, &track[..1], &mission, &aircraft);
+        assert_eq!(clock.missed(&v0), None);
+        assert_eq!(clock.pending_s(&v0), Some(0.0));
+        let passed = Stack {
+            items: ne.clone(),
+            current: 1,
+        };
+        let v1 = view(9.0, &passed, &track, &mission, &aircraft);
+        assert_eq!(clock.missed(&v1), None, "the turn ahead may capture it");
+        assert_eq!(clock.pending_s(&v1), Some(0.0));
+        // The plan then sent it west, through an avoid item, and it flew west: flagged at
+        // the next call, once.
+        track.extend((1..=5).map(|k| {
+            let k = f64::from(k);
+            (9.0 + 0.2 * k, [-35.0 - 4.0 * k, -20.0, 100.0])
+        }));
+        let west = Stack {
+            items: vec![ne[0], StackItem::avoid([-300.0, -100.0], 100.0), ne[1]],
+            current: 1,
+        };
+        let v2 = view(10.0, &west, &track, &mission, &aircraft);
+        let m = clock.missed(&v2).expect("flown away from it");
+        assert_eq!((m.stack_index, m.mission_index), (0, 0));
+        assert!((m.closest_m - 35f64.hypot(20.0)).abs() < 1e-6, "{m:?}");
+        assert_eq!(clock.pending_s(&v2), Some(1.0));
+        assert_eq!(clock.missed(&v2), None);
     }
 
     #[test]
