@@ -88,6 +88,11 @@ pub struct VerifyParams {
 /// The judges' waypoint capture distance, 100 ft in metres.
 pub const JUDGE_CAPTURE_M: f64 = 30.48;
 
+/// A route whose graded peak is within this many times the safe risk, its near-term peak
+/// within the safe risk, is unclear only just ([`Verification::marginal`]): among unclear
+/// routes, those come first, and among them fewer missed waypoints first.
+pub const MARGINAL_FACTOR: f64 = 2.0;
+
 impl Default for VerifyParams {
     fn default() -> Self {
         Self {
@@ -191,6 +196,14 @@ impl Verification {
         self.cylinder_hits + self.zone_exits + usize::from(self.unreachable.is_some())
     }
 
+    /// Unclear only just: no hard violation, the near-term peak within the safe risk and
+    /// the graded peak within [`MARGINAL_FACTOR`] times it ([`Verification::better_than`]).
+    pub fn marginal(&self, safe_risk: f64) -> bool {
+        self.hard() == 0
+            && self.near_peak_risk <= safe_risk
+            && self.graded_peak_risk <= MARGINAL_FACTOR * safe_risk
+    }
+
     /// Clear: no hard violation and no risk above the time-graded limit (`safe_risk`
     /// within [`VerifyParams::near_s`], growing to [`VerifyParams::far_risk`] at the
     /// horizon).
@@ -203,8 +216,9 @@ impl Verification {
     /// in danger (either route's near-term peak risk above `danger_risk`), the lower
     /// near-term peak, then (equal peaks) the lower near-term exposure, before fly-zone
     /// exits; then fewer fly-zone exits, clear before
-    /// unclear, then (both unclear) lower near-term peak, lower graded peak, lower
-    /// exposure; (both clear) fewer missed waypoints; then shorter. True when `self` is
+    /// unclear, then (both unclear) unclear only just ([`Verification::marginal`]) before
+    /// not, among those fewer missed waypoints, then lower near-term peak, lower graded
+    /// peak, lower exposure; (both clear) fewer missed waypoints; then shorter. True when `self` is
     /// strictly better than `other`.
     ///
     /// The danger rule puts a collision expected within [`VerifyParams::near_s`] above a
@@ -245,6 +259,13 @@ impl Verification {
             return a_clear;
         }
         if !a_clear {
+            let (a_m, b_m) = (self.marginal(safe_risk), other.marginal(safe_risk));
+            if a_m != b_m {
+                return a_m;
+            }
+            if a_m && self.missed_waypoints != other.missed_waypoints {
+                return self.missed_waypoints < other.missed_waypoints;
+            }
             for (a, b) in [
                 (self.near_peak_risk, other.near_peak_risk),
                 (self.graded_peak_risk, other.graded_peak_risk),
@@ -328,6 +349,17 @@ impl Verification {
             (false, true) => return true,
             (true, false) => return false,
             (false, false) => {
+                // Marginal only turns into not marginal as the route grows.
+                match (self.marginal(safe_risk), rival.marginal(safe_risk)) {
+                    (false, true) => return true,
+                    (true, false) => return false,
+                    (true, true) => match self.missed_waypoints.cmp(&rival.missed_waypoints) {
+                        Greater => return true,
+                        Less => return false,
+                        Equal => {}
+                    },
+                    (false, false) => {}
+                }
                 for (a, b) in [
                     (self.near_peak_risk, rival.near_peak_risk),
                     (self.graded_peak_risk, rival.graded_peak_risk),
@@ -1488,6 +1520,76 @@ mod tests {
             ..va
         };
         assert!(v.better_than(&risky, 0.05, 0.25));
+    }
+
+    #[test]
+    fn among_routes_unclear_only_just_the_one_that_captures_wins() {
+        // Two unclear routes to a waypoint, both within the safe risk for the near window,
+        // their graded peaks 0.08 and 0.06 (safe risk 0.05: both within twice it). The one
+        // that loops round and captures the waypoint wins over the one that passes it wide
+        // with the lower peak (Webster Field, spline seed 194: a waypoint passed wide three
+        // times while every route was unclear by a little).
+        let capture = Verification {
+            near_peak_risk: 0.02,
+            graded_peak_risk: 0.08,
+            peak_risk: 0.3,
+            exposure_m: 60.0,
+            length_m: 1600.0,
+            ..Verification::default()
+        };
+        let wide = Verification {
+            near_peak_risk: 0.0,
+            graded_peak_risk: 0.06,
+            exposure_m: 20.0,
+            missed_waypoints: 1,
+            first_missed: Some(0),
+            length_m: 900.0,
+            ..capture
+        };
+        assert!(capture.marginal(0.05) && wide.marginal(0.05));
+        assert!(!capture.is_clear(0.05) && !wide.is_clear(0.05));
+        assert!(capture.better_than(&wide, 0.05, 0.25));
+        assert!(!wide.better_than(&capture, 0.05, 0.25));
+        // Above twice the safe risk, or above it in the near window, the waypoint is not
+        // worth the risk: the lower peaks win again.
+        for risky in [
+            Verification {
+                graded_peak_risk: 0.11,
+                ..capture
+            },
+            Verification {
+                near_peak_risk: 0.06,
+                ..capture
+            },
+        ] {
+            assert!(!risky.marginal(0.05), "{risky:?}");
+            assert!(wide.better_than(&risky, 0.05, 0.25));
+            assert!(!risky.better_than(&wide, 0.05, 0.25));
+        }
+        // A route unclear only just ranks before one that is not, whatever its near peak.
+        let far_risky = Verification {
+            near_peak_risk: 0.0,
+            graded_peak_risk: 0.5,
+            ..wide
+        };
+        assert!(capture.better_than(&far_risky, 0.05, 0.25));
+        // A clear route still beats both; between clear routes nothing changed.
+        let clear = Verification {
+            graded_peak_risk: 0.05,
+            near_peak_risk: 0.05,
+            missed_waypoints: 1,
+            ..wide
+        };
+        assert!(clear.better_than(&capture, 0.05, 0.25));
+        // A partial flight with more misses than a marginal rival cannot win; one that is
+        // no longer marginal cannot either; one with fewer misses still can.
+        assert!(wide.cannot_beat(&capture, 0.05, 0.25, false));
+        assert!(far_risky.cannot_beat(&capture, 0.05, 0.25, false));
+        let partial = Verification {
+            length_m: 100.0,
+            ..capture
+        };
+        assert!(!partial.cannot_beat(&wide, 0.05, 0.25, false));
     }
 
     #[test]
