@@ -873,16 +873,29 @@ async fn fly_past(
     t0: f64,
     samples: std::ops::RangeInclusive<u32>,
 ) {
+    let track = samples.map(|k| {
+        let k = f64::from(k);
+        (t0 + 0.2 * k, east_m, -300.0 + 4.0 * k, 0.0)
+    });
+    post_track(app, id, at, track).await;
+}
+
+/// Posts the aircraft's telemetry at 20 m/s: `(t, east_m, north_m, heading_deg)` each, the
+/// offsets from `at` (a waypoint), at its altitude.
+async fn post_track(
+    app: &App,
+    id: &str,
+    at: &Value,
+    track: impl Iterator<Item = (f64, f64, f64, f64)>,
+) {
     let (lat, lon, alt) = (num(at, "/lat"), num(at, "/lon"), num(at, "/alt_msl_m"));
     // Metres per degree at this latitude (WGS-84, to well under 0.1%).
     let m_lat = 111_132.9 - 559.8 * (2.0 * lat.to_radians()).cos();
     let m_lon = 111_412.8 * lat.to_radians().cos();
-    let track: Vec<Value> = samples
-        .map(|k| {
-            let north = -300.0 + 4.0 * f64::from(k);
-            json!({"t": t0 + 0.2 * f64::from(k), "lat": lat + north / m_lat,
-                   "lon": lon + east_m / m_lon, "alt_msl_m": alt, "heading_deg": 0.0,
-                   "speed_mps": 20.0})
+    let track: Vec<Value> = track
+        .map(|(t, east, north, heading)| {
+            json!({"t": t, "lat": lat + north / m_lat, "lon": lon + east / m_lon,
+                   "alt_msl_m": alt, "heading_deg": heading, "speed_mps": 20.0})
         })
         .collect();
     let r = app
@@ -1057,21 +1070,11 @@ async fn a_pass_the_turn_ahead_may_capture_is_judged_again_at_the_next_plan(app:
         "{p2}"
     );
     // Then one second west, away from it.
-    let (lat, lon, alt) = (num(&wp, "/lat"), num(&wp, "/lon"), num(&wp, "/alt_msl_m"));
-    let m_lat = 111_132.9 - 559.8 * (2.0 * lat.to_radians()).cos();
-    let m_lon = 111_412.8 * lat.to_radians().cos();
-    let west: Vec<Value> = (1..=5)
-        .map(|j| {
-            let east = -35.0 - 4.0 * f64::from(j);
-            json!({"t": T0 + 14.0 + 0.2 * f64::from(j), "lat": lat - 20.0 / m_lat,
-                   "lon": lon + east / m_lon, "alt_msl_m": alt, "heading_deg": 270.0,
-                   "speed_mps": 20.0})
-        })
-        .collect();
-    let r = app
-        .post_json(&format!("/api/v1/missions/{id}/telemetry"), &json!(west))
-        .await;
-    assert_eq!(r.status(), 202);
+    let west = (1..=5).map(|j| {
+        let j = f64::from(j);
+        (T0 + 14.0 + 0.2 * j, -35.0 - 4.0 * j, -20.0, 270.0)
+    });
+    post_track(&app, &id, &wp, west).await;
     let body = json!({"seed": 3, "base_revision": 2, "current_index": k + 1, "aircraft": radius});
     let p3 = plan(&app, &id, body).await;
     let passed = passed_at(&p3, "waypoint_revisited");
