@@ -433,29 +433,35 @@ async fn create_plan(
     let behind = base_target.filter(|&(k, _)| {
         body.skip_captured.unwrap_or(true) && next == Some(k) && k > current_index
     });
-    let since = base_watch
-        .map(|w| w.since_s)
-        .or(pursued.or(behind).map(|(_, s)| s));
+    let judged = base_watch.map(|w| w.since_s).or(pursued.map(|(_, s)| s));
+    let since = judged
+        .into_iter()
+        .chain(behind.map(|(_, s)| s))
+        .reduce(f64::min);
     if let Some(since) = since {
         let track = state
             .store
             .list_telemetry_since(&id, since - planner::revisit::TRACK_GAP_S, REVISIT_SAMPLES)
             .await?;
         let (base, track) = enu_track(&mission, &stack, &track);
-        if pursued.is_some() || base_watch.is_some() {
+        if let Some(judged) = judged {
+            // The track from the pass's own time on, as the simulator reads it.
+            let from = track.partition_point(|p| p.t_s < judged - planner::revisit::TRACK_GAP_S);
             match planner::judge_pass(
                 &base,
                 current_index,
                 pursued,
                 base_watch,
-                &track,
+                &track[from..],
                 turn_radius_m,
             ) {
                 Some(planner::Pass::Missed(m)) => revisit = Some(m),
                 Some(planner::Pass::Watch(w)) => watch = Some(w),
                 None => {}
             }
-        } else if let Some(pursued) = behind {
+        }
+        // A revisit asked in the same plan wins.
+        if let Some(pursued) = behind.filter(|_| revisit.is_none()) {
             captured = planner::captured_on_the_way(&base, current_index, pursued, &track);
         }
     }
