@@ -469,7 +469,7 @@ fn enu_stack(
 }
 
 /// `stack` (empty: the mission's) and `telemetry` (oldest first) in the planner's ENU terms,
-/// for [`planner::missed_waypoint`] and [`planner::captured_on_the_way`].
+/// for [`planner::judge_pass`] and [`planner::captured_on_the_way`].
 pub fn enu_track(
     mission: &Mission,
     stack: &[GeoItem],
