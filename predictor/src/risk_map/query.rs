@@ -90,7 +90,9 @@ impl RiskMap {
         if f <= 0.0 {
             return (0, 0);
         }
-        let k = f.floor();
+        // `f.floor()` for this positive `f` (NaN gives 0 both ways), without libm's call:
+        // every risk read brackets its time.
+        let k = (f as u64) as f64;
         let last = self.n_slices - 1;
         let k0 = (k as usize).min(last);
         if f - k < 1e-6 || k0 == last {
