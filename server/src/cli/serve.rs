@@ -139,7 +139,9 @@ pub struct AccessArgs {
     /// CPU jobs run at once: plan computations, risk-map builds, replays and pictures
     /// together (default: one core less than the machine has, at least 1, so that the
     /// server's own threads, which answer ingest, always keep a core). Plans and the maps
-    /// requests wait for go before maps rebuilt ahead of time.
+    /// requests wait for go before maps rebuilt ahead of time, and while every slot rebuilds
+    /// a map ahead of time, one of them at a time runs beside those builds instead of
+    /// waiting.
     #[arg(long, env = "JINK_CPU_WORKERS")]
     pub cpu_workers: Option<usize>,
 
