@@ -373,9 +373,16 @@ pub fn trace_plans() -> bool {
     *ON.get_or_init(|| std::env::var_os("JINK_SIM_TRACE").is_some())
 }
 
+/// Items of the chosen stack a `JINK_SIM_TRACE` plan line lists, from the current one.
+const TRACE_ITEMS: usize = 5;
+/// Spheres nearer the aircraft than this a `JINK_SIM_TRACE` plan line lists, metres.
+const TRACE_NEAR_M: f64 = 600.0;
+
 /// One line of `JINK_SIM_TRACE`: time, position and altitude, current index, the next
 /// fixed item of the plan (position and altitude), how long it has been pending, whether a
-/// missed waypoint is flown again, the outcome and the chosen route's verification.
+/// missed waypoint is flown again, the outcome and the chosen route's verification; then the
+/// chosen stack's next items and the true spheres near the aircraft (position now and 5 s
+/// on, how many observations the planner had of each, behaviour).
 fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
     let v = &plan.verification;
     let next = planner::next_fixed(&plan.items, plan.current_index)
@@ -405,6 +412,36 @@ fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
         plan.added,
         v.conflict,
     );
+    // The route chosen: the stack's next items (avoid items marked `a`).
+    let items: Vec<String> = plan
+        .items
+        .iter()
+        .skip(plan.current_index)
+        .take(TRACE_ITEMS)
+        .map(|i| {
+            let mark = if i.kind == planner::ItemKind::Avoid {
+                "a"
+            } else {
+                ""
+            };
+            format!("({:.0}, {:.0}){mark}", i.p_m[0], i.p_m[1])
+        })
+        .collect();
+    eprintln!("   stack {}", items.join(" "));
+    // The truth the plan did not have: each sphere within TRACE_NEAR_M, now and 5 s on.
+    for (k, s) in view.truth.iter().enumerate() {
+        let p = s.track.at(view.t_s);
+        let d = (p[0] - r.state.p_m[0]).hypot(p[1] - r.state.p_m[1]);
+        if d < TRACE_NEAR_M {
+            let q = s.track.at(view.t_s + 5.0);
+            let seen = view.tracks.get(k).map_or(0, |t| t.len());
+            eprintln!(
+                "   sphere {k} radius={:.0} speed={:.1} at=({:.0}, {:.0}, {:.0}) in_5s=({:.0}, {:.0}) \
+                 distance={d:.0} observations={seen} {:?}",
+                s.radius_m, s.speed_mps, p[0], p[1], p[2], q[0], q[1], s.behaviour
+            );
+        }
+    }
 }
 
 /// Keeps the stack, deciding every `.0` seconds: the "none" strategy (never, in effect),
