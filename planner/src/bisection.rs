@@ -495,10 +495,10 @@ mod tests {
 
     #[test]
     fn ceil_count_is_the_ceiling_of_the_reads_at_least_one() {
-        let mut x = 0.0;
+        let mut x: f64 = 0.0;
         while x < 500.0 {
             for v in [x, x + 1e-12, x - 1e-12, x + 0.5] {
-                let v: f64 = v.max(0.0);
+                let v = v.max(0.0);
                 assert_eq!(ceil_count(v), v.ceil().max(1.0) as usize, "{v}");
             }
             x += 0.37;

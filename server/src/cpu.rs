@@ -354,11 +354,13 @@ mod tests {
             .await
             .expect("a request waited behind a background job");
         assert!(plan.is_overdraft());
-        // A second request waits: the extra slot is taken.
-        let second = {
+        // A request that waits; it answers whether it got the extra slot.
+        let request = || {
             let gate = gate.clone();
             tokio::spawn(async move { gate.acquire(Priority::Foreground).await.is_overdraft() })
         };
+        // A second request waits: the extra slot is taken.
+        let second = request();
         settle().await;
         assert!(!second.is_finished());
         // The first gives the extra slot back: the build still runs, so it goes on.
@@ -369,10 +371,7 @@ mod tests {
         let third = gate.acquire(Priority::Foreground).await;
         assert!(!third.is_overdraft());
         // And with the slot held by a request, another waits (no extra slot then).
-        let fourth = {
-            let gate = gate.clone();
-            tokio::spawn(async move { gate.acquire(Priority::Foreground).await.is_overdraft() })
-        };
+        let fourth = request();
         settle().await;
         assert!(!fourth.is_finished());
         drop(third);
