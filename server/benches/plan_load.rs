@@ -12,9 +12,14 @@
 //! reported; then each gets one plan (which builds its risk map; the server keeps at most
 //! `--live-max-maps` of them) and VmRSS is reported again.
 //! `JINK_PLAN_DATABASE_URL` overrides the store (default: a fresh SQLite file).
-//! Each phase also prints its plans by outcome with their `compute_ms`: the aircraft holds
-//! its position while the spheres circle past it, so some plans find no clear route and
-//! run the safety net, which takes several times as long.
+//! The aircraft flies its plans: it follows the stack of each plan answer (18 m/s, 35 m
+//! turn radius, the next item within 20 m or once past it), its telemetry is where it is,
+//! and each plan asks for the item it flies to (`current_index`), as a team's ground
+//! station does. `JINK_PLAN_FLY=0` holds it at the first waypoint instead (the benchmark
+//! before 2026-11-28): the spheres then circle past an aircraft that never gets away, so
+//! half the plans find no clear route and run the safety net, which takes several times as
+//! long. Each phase prints its plans by outcome with their `compute_ms`, and where the
+//! aircraft is.
 
 mod support;
 
@@ -39,6 +44,121 @@ fn pct(v: &mut [f64], p: f64) -> f64 {
         return f64::NAN;
     }
     v[((v.len() as f64 - 1.0) * p).round() as usize]
+}
+
+/// Metres per degree of latitude and (at the field) of longitude, for the flier's local frame.
+const M_PER_DEG_LAT: f64 = 110_540.0;
+
+/// The aircraft of `JINK_PLAN_FLY=1`: it flies the stack of the latest plan at 18 m/s,
+/// turning at most at the rate a 35 m radius allows, and goes on to the next item within
+/// 20 m of it or once past it (as an autopilot does), at 4 m/s of climb. Positions are
+/// metres east and north of where it starts.
+struct Flier {
+    origin: [f64; 2],
+    m_per_deg_lon: f64,
+    p_m: [f64; 2],
+    alt_m: f64,
+    heading_rad: f64,
+    /// The latest plan's stack, metres and altitude.
+    stack: Vec<[f64; 3]>,
+    current: usize,
+    leg_start_m: [f64; 2],
+}
+
+impl Flier {
+    const SPEED_MPS: f64 = 18.0;
+    const TURN_RADIUS_M: f64 = 35.0;
+
+    fn new(lat: f64, lon: f64, alt_m: f64, heading_deg: f64) -> Self {
+        Self {
+            origin: [lat, lon],
+            m_per_deg_lon: 111_320.0 * lat.to_radians().cos(),
+            p_m: [0.0, 0.0],
+            alt_m,
+            heading_rad: (90.0 - heading_deg).to_radians(),
+            stack: Vec::new(),
+            current: 1,
+            leg_start_m: [0.0, 0.0],
+        }
+    }
+
+    fn to_m(&self, lat: f64, lon: f64) -> [f64; 2] {
+        [
+            (lon - self.origin[1]) * self.m_per_deg_lon,
+            (lat - self.origin[0]) * M_PER_DEG_LAT,
+        ]
+    }
+
+    fn lat_lon(&self) -> (f64, f64) {
+        (
+            self.origin[0] + self.p_m[1] / M_PER_DEG_LAT,
+            self.origin[1] + self.p_m[0] / self.m_per_deg_lon,
+        )
+    }
+
+    /// Takes the stack of a plan answer (`waypoints`, `current_index`).
+    fn follow(&mut self, plan: &Value) {
+        let Some(items) = plan["waypoints"].as_array() else {
+            return;
+        };
+        let stack: Vec<[f64; 3]> = items
+            .iter()
+            .map(|w| {
+                let p = self.to_m(w["lat"].as_f64().unwrap(), w["lon"].as_f64().unwrap());
+                [p[0], p[1], w["alt_msl_m"].as_f64().unwrap()]
+            })
+            .collect();
+        let current = plan["current_index"].as_u64().unwrap_or(1) as usize;
+        let old = self.stack.get(self.current).copied();
+        if stack.get(current).copied() != old {
+            self.leg_start_m = self.p_m;
+        }
+        self.stack = stack;
+        self.current = current;
+    }
+
+    /// Flies `dt_s` seconds.
+    fn step(&mut self, dt_s: f64) {
+        if let Some(t) = self.stack.get(self.current).copied() {
+            let want = (t[1] - self.p_m[1]).atan2(t[0] - self.p_m[0]);
+            let err = (want - self.heading_rad + std::f64::consts::PI)
+                .rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            let max = Self::SPEED_MPS / Self::TURN_RADIUS_M * dt_s;
+            self.heading_rad += err.clamp(-max, max);
+            self.alt_m += (t[2] - self.alt_m).clamp(-4.0 * dt_s, 4.0 * dt_s);
+        }
+        let d = Self::SPEED_MPS * dt_s;
+        self.p_m[0] += d * self.heading_rad.cos();
+        self.p_m[1] += d * self.heading_rad.sin();
+        while let Some(t) = self.stack.get(self.current).copied() {
+            let (dx, dy) = (self.p_m[0] - t[0], self.p_m[1] - t[1]);
+            let (lx, ly) = (t[0] - self.leg_start_m[0], t[1] - self.leg_start_m[1]);
+            let passed = lx.hypot(ly) > 1e-6 && dx * lx + dy * ly > 0.0;
+            if dx.hypot(dy) > 20.0 && !passed {
+                break;
+            }
+            self.leg_start_m = [t[0], t[1]];
+            self.current += 1;
+        }
+    }
+
+    /// Its telemetry sample at flight time `t`.
+    fn sample(&self, t: f64) -> Value {
+        let (lat, lon) = self.lat_lon();
+        let heading_deg = (90.0 - self.heading_rad.to_degrees()).rem_euclid(360.0);
+        json!({"t": t, "lat": lat, "lon": lon, "alt_msl_m": self.alt_m,
+               "heading_deg": heading_deg, "speed_mps": Self::SPEED_MPS})
+    }
+
+    /// The index to ask a plan for: the item flown to, within the stack.
+    fn current_index(&self) -> usize {
+        if self.stack.is_empty() {
+            1
+        } else {
+            self.current.min(self.stack.len() - 1)
+        }
+    }
 }
 
 /// An interop-2018 snapshot of 10 spheres on circles over the field at flight time `t`.
@@ -102,6 +222,7 @@ struct Phase {
     seconds: f64,
 }
 
+#[allow(clippy::too_many_arguments)]
 async fn fly(
     client: &reqwest::Client,
     base: &str,
@@ -110,6 +231,7 @@ async fn fly(
     t0: f64,
     seconds: u32,
     plan_hz: u32,
+    mut flier: Option<&mut Flier>,
 ) -> Phase {
     let mut ph = Phase {
         plan_rt_ms: Vec::new(),
@@ -138,8 +260,16 @@ async fn fly(
         ph.ingest_ms.push(s.elapsed().as_secs_f64() * 1e3);
         let timing = server_timing(&r);
         add_phases(&mut ph.ingest_phases, &timing);
-        let sample = json!({"t": t, "lat": 38.1446916666667 + 0.00001 * f64::from(i % 50), "lon": -76.4279944444445,
-                            "alt_msl_m": 60.96, "heading_deg": 60.0, "speed_mps": 20.0});
+        let sample = match flier.as_deref_mut() {
+            Some(f) => {
+                f.step(0.2);
+                f.sample(t)
+            }
+            None => {
+                json!({"t": t, "lat": 38.1446916666667 + 0.00001 * f64::from(i % 50), "lon": -76.4279944444445,
+                           "alt_msl_m": 60.96, "heading_deg": 60.0, "speed_mps": 20.0})
+            }
+        };
         expect(
             client
                 .post(format!("{base}/api/v1/missions/{id}/telemetry"))
@@ -150,10 +280,15 @@ async fn fly(
         if i % (5 / plan_hz) == 0 {
             let s = Instant::now();
             let plan = client.post(format!("{base}/api/v1/missions/{id}/plan"));
-            let r = expect(plan.json(&json!({"seed": 7, "current_index": 1})), 201).await;
+            let current_index = flier.as_deref().map_or(1, Flier::current_index);
+            let body = json!({"seed": 7, "current_index": current_index});
+            let r = expect(plan.json(&body), 201).await;
             let timing = server_timing(&r);
             let v: Value = r.json().await.unwrap();
             ph.plan_rt_ms.push(s.elapsed().as_secs_f64() * 1e3);
+            if let Some(f) = flier.as_deref_mut() {
+                f.follow(&v);
+            }
             let compute_ms = v["compute_ms"].as_f64().unwrap();
             ph.plan_compute_ms.push(compute_ms);
             ph.plan_outcomes
@@ -187,9 +322,16 @@ fn main() {
         let client = reqwest::Client::new();
         let id = create_webster(&client, &base).await;
         let t0 = 1_700_000_000.0;
-        println!("plan_load: backend={} flight={seconds} s per phase", db_url.split(':').next().unwrap_or("?"));
+        let flying = env_or("JINK_PLAN_FLY", 1u8) == 1;
+        let mut flier = flying.then(|| Flier::new(38.1446916666667, -76.4279944444445, 60.96, 60.0));
+        println!(
+            "plan_load: backend={} flight={seconds} s per phase, aircraft {}",
+            db_url.split(':').next().unwrap_or("?"),
+            if flying { "flying its plans" } else { "holding its position" }
+        );
         for (k, hz) in [1u32, 5].into_iter().enumerate() {
-            let mut ph = fly(&client, &base, &id, pid, t0 + f64::from(k as u32 * seconds), seconds, hz).await;
+            let t = t0 + f64::from(k as u32 * seconds);
+            let mut ph = fly(&client, &base, &id, pid, t, seconds, hz, flier.as_mut()).await;
             println!(
                 "  plans at {hz} Hz: {} plans; round trip ms p50 {:.2} p99 {:.2}; compute_ms p50 {:.2} p99 {:.2}; \
                  ingest (10-obstacle snapshot) ms p50 {:.2} p99 {:.2}; server CPU {:.1} ms per flight-second",
@@ -202,6 +344,15 @@ fn main() {
                 pct(&mut ph.ingest_ms, 0.99),
                 ph.cpu_s / ph.seconds * 1e3,
             );
+            if let Some(f) = &flier {
+                println!(
+                    "    aircraft {:.0} m east, {:.0} m north of its start, flying to item {} of {}",
+                    f.p_m[0],
+                    f.p_m[1],
+                    f.current,
+                    f.stack.len()
+                );
+            }
             if !ph.plan_phases.is_empty() {
                 println!(
                     "    server-side phases (Server-Timing), ms p50/p99: plan {}; ingest {}; {} of {} plans used the map published before the batch just posted",
