@@ -38,4 +38,6 @@ pub(crate) use wire::{geodesy, mission, time};
 pub use api::openapi_json;
 pub use app::{AppState, Settings, router};
 pub use cli::run;
+/// The default of `--plan-map-max-age-ms` (tests of the default name it).
+pub use live::DEFAULT_PLAN_MAP_MAX_AGE_MS;
 pub use store::Store;

@@ -249,8 +249,8 @@ pub struct PlanBody {
     /// Plan on the last published risk map while the oldest batch it lacks was accepted
     /// at most this long ago, milliseconds (the answer's `map_lag_batches` and
     /// `map_age_ms` say what it lacked); older, the plan waits for the map of every
-    /// accepted batch. 0: always wait (read your writes). Default: the server's
-    /// `--plan-map-max-age-ms` (0).
+    /// accepted batch, and it always waits for a batch that brings a new obstacle. 0:
+    /// always wait (read your writes). Default: the server's `--plan-map-max-age-ms` (250).
     #[schema(minimum = 0, maximum = 60000)]
     #[serde(default, deserialize_with = "crate::extract::opt_integer")]
     pub max_map_age_ms: Option<u64>,

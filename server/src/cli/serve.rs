@@ -64,8 +64,9 @@ pub struct ServeArgs {
 
     /// A plan uses the mission's last published risk map while the oldest observation
     /// batch it lacks was accepted at most this many milliseconds ago (its rebuild is then
-    /// under way), instead of waiting for it; 0 makes every plan wait (read your writes).
-    /// A plan request's `max_map_age_ms` overrides it.
+    /// under way), instead of waiting for it, unless those batches bring a new obstacle;
+    /// 0 makes every plan wait (read your writes). A plan request's `max_map_age_ms`
+    /// overrides it.
     #[arg(long, env = "JINK_PLAN_MAP_MAX_AGE_MS", default_value_t = crate::live::DEFAULT_PLAN_MAP_MAX_AGE_MS)]
     pub plan_map_max_age_ms: u64,
 

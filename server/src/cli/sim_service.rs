@@ -13,8 +13,10 @@
 //! - at every call posts the obstacle telemetry received since the last call as one native
 //!   batch (ids "0", "1", ...; times on the mission clock [`T0_S`] + simulated seconds) and
 //!   the aircraft's own state as native telemetry, then asks for a plan with `base_revision`
-//!   (the revision it flies), `current_index`, the aircraft's speed and turn radius and a
-//!   seed derived from the run seed and the call count, and flies the answer.
+//!   (the revision it flies), `current_index`, the aircraft's speed and turn radius,
+//!   `max_map_age_ms: 0` (the map of every batch posted, so that a run never depends on
+//!   how fast a map was built) and a seed derived from the run seed and the call count, and
+//!   flies the answer.
 //! - `server-bare` tells the service the least a client can: its telemetry carries no speed
 //!   (the interop telemetry forms have none) and its plan requests no `aircraft`.
 //!
@@ -243,6 +245,9 @@ impl HttpPlanner {
             "seed": planner::plan::leg_seed(self.seed, self.calls as usize, 0),
             "base_revision": self.revision,
             "current_index": view.stack.current,
+            // Every batch posted before it (read your writes): a run must not depend on
+            // how fast the map of the last batch was built.
+            "max_map_age_ms": 0,
             "aircraft": {"speed_mps": a.speed_mps, "turn_radius_m": a.turn_radius_m,
                          "acceptance_radius_m": view.aircraft.acceptance_radius_m},
         });

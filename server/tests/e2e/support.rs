@@ -107,6 +107,11 @@ impl App {
     fn start(&mut self) {
         let bind = self.bind.clone().unwrap_or_else(|| "127.0.0.1:0".into());
         let mut args = vec!["serve", "--bind", &bind, "--database-url", &self.db_url];
+        // Plans see every batch posted before them (read your writes), so that what a test
+        // asserts never depends on how fast a map was built; a test of the default says so.
+        if !self.extra_args.iter().any(|a| a == "--plan-map-max-age-ms") {
+            args.extend(["--plan-map-max-age-ms", "0"]);
+        }
         args.extend(self.extra_args.iter().map(String::as_str));
         let (child, base) = serve_jink(&args, self.dir.path());
         self.base = base;
