@@ -84,7 +84,8 @@ async fn maps_are_built_only_for_map_reads_and_at_most_max_maps_are_kept() {
     assert_eq!(cells(&again), cells(&first));
 }
 
-/// Batch 51 of mission "a": a new obstacle, one tick after the fixture's last row.
+/// The next batch of mission "a": a new obstacle ("3"), one tick after the fixture's last
+/// row.
 async fn one_more_batch(state: &AppState, m: &Mission) -> StoredBatch {
     let t = 1_700_000_000.0 + 0.2 * 50.0;
     let rows = [ObservationRow {
@@ -114,8 +115,26 @@ async fn a_plan_takes_the_published_snapshot_while_a_batch_is_young_and_waits_on
         .expect("snapshot");
     assert_eq!((first.seq, lag), (50, MapLag::default()));
     // A batch applied without its background rebuild (as when it lands between a plan's
-    // reads): a plan within the age bound takes the published snapshot, whole.
-    let batch = one_more_batch(&state, &a).await;
+    // reads), moving a known obstacle: a plan within the age bound takes the published
+    // snapshot, whole.
+    let t = 1_700_000_000.0 + 0.2 * 50.0;
+    let moved = [ObservationRow {
+        obstacle_id: "0".into(),
+        t_s: t,
+        // 55 m from where the predictor last took it (the fixture's first row: its later
+        // rows move 55 m/s, faster than an obstacle can, and are passed over).
+        lat_deg: 38.1455,
+        lon_deg: -76.429,
+        alt_msl_m: 60.0,
+        radius_m: 20.0,
+    }];
+    let batch = state
+        .store
+        .insert_observations(&a.id, &moved, t)
+        .await
+        .expect("insert")
+        .expect("mission");
+    assert_eq!(batch.seq, 51);
     live.apply(&state, &batch).await.expect("apply");
     let (young, lag) = live
         .plan_snapshot(&state, Duration::from_secs(1))
@@ -132,13 +151,22 @@ async fn a_plan_takes_the_published_snapshot_while_a_batch_is_young_and_waits_on
         .expect("snapshot");
     assert_eq!((current.seq, lag), (51, MapLag::default()));
     assert!(current.anchor_t_s > first.anchor_t_s);
-    assert_eq!(current.map_ids, ["0", "1", "2", "3"]);
-    assert_eq!(young.map_ids, ["0", "1", "2"]);
-    // Its predictor and map hold batch 51 and nothing is mixed: the same as a rebuild of
-    // batches 1..=51 from the store.
+    // A batch that brings a new obstacle is never skipped, however young it is.
+    let batch = one_more_batch(&state, &a).await;
+    assert_eq!(batch.seq, 52);
+    live.apply(&state, &batch).await.expect("apply");
+    let (with_new, lag) = live
+        .plan_snapshot(&state, Duration::from_secs(1))
+        .await
+        .expect("snapshot");
+    assert_eq!((with_new.seq, lag), (52, MapLag::default()));
+    assert_eq!(with_new.map_ids, ["0", "1", "2", "3"]);
+    assert_eq!(current.map_ids, ["0", "1", "2"]);
+    // Its predictor and map hold batch 52 and nothing is mixed: the same as a rebuild of
+    // batches 1..=52 from the store.
     let rows: Vec<ObservationRow> = state
         .store
-        .list_observations_through(&a.id, -1, 51)
+        .list_observations_through(&a.id, -1, 52)
         .await
         .expect("rows")
         .into_iter()
@@ -146,8 +174,8 @@ async fn a_plan_takes_the_published_snapshot_while_a_batch_is_young_and_waits_on
         .collect();
     let mut p = Predictor::new(snapshot::predictor_config());
     snapshot::feed(&mut p, &a.frame(), &rows);
-    let rebuilt = Snapshot::build(&a, 51, Arc::new(p));
-    assert_eq!(cells(&current), cells(&rebuilt));
+    let rebuilt = Snapshot::build(&a, 52, Arc::new(p));
+    assert_eq!(cells(&with_new), cells(&rebuilt));
 }
 
 /// Batch `k` (52, 53, ...) of mission "a": obstacle "0" one tick further on.
