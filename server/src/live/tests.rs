@@ -84,24 +84,36 @@ async fn maps_are_built_only_for_map_reads_and_at_most_max_maps_are_kept() {
     assert_eq!(cells(&again), cells(&first));
 }
 
-/// The next batch of mission "a": a new obstacle ("3"), one tick after the fixture's last
-/// row.
-async fn one_more_batch(state: &AppState, m: &Mission) -> StoredBatch {
-    let t = 1_700_000_000.0 + 0.2 * 50.0;
+/// Stores a batch of one observation of `obstacle_id` (60 m MSL, 20 m radius) at `t_s`
+/// for mission `m`.
+async fn insert_one(
+    state: &AppState,
+    m: &Mission,
+    obstacle_id: &str,
+    t_s: f64,
+    lat_deg: f64,
+    lon_deg: f64,
+) -> StoredBatch {
     let rows = [ObservationRow {
-        obstacle_id: "3".into(),
-        t_s: t,
-        lat_deg: 38.147,
-        lon_deg: -76.427,
+        obstacle_id: obstacle_id.into(),
+        t_s,
+        lat_deg,
+        lon_deg,
         alt_msl_m: 60.0,
         radius_m: 20.0,
     }];
     state
         .store
-        .insert_observations(&m.id, &rows, t)
+        .insert_observations(&m.id, &rows, t_s)
         .await
         .expect("insert")
         .expect("mission")
+}
+
+/// The next batch of mission "a": a new obstacle ("3"), one tick after the fixture's last
+/// row.
+async fn one_more_batch(state: &AppState, m: &Mission) -> StoredBatch {
+    insert_one(state, m, "3", 1_700_000_000.0 + 0.2 * 50.0, 38.147, -76.427).await
 }
 
 #[tokio::test]
@@ -116,24 +128,11 @@ async fn a_plan_takes_the_published_snapshot_while_a_batch_is_young_and_waits_on
     assert_eq!((first.seq, lag), (50, MapLag::default()));
     // A batch applied without its background rebuild (as when it lands between a plan's
     // reads), moving a known obstacle: a plan within the age bound takes the published
-    // snapshot, whole.
+    // snapshot, whole. Obstacle "0" goes 55 m from where the predictor last took it (the
+    // fixture's first row: its later rows move 55 m/s, faster than an obstacle can, and
+    // are passed over).
     let t = 1_700_000_000.0 + 0.2 * 50.0;
-    let moved = [ObservationRow {
-        obstacle_id: "0".into(),
-        t_s: t,
-        // 55 m from where the predictor last took it (the fixture's first row: its later
-        // rows move 55 m/s, faster than an obstacle can, and are passed over).
-        lat_deg: 38.1455,
-        lon_deg: -76.429,
-        alt_msl_m: 60.0,
-        radius_m: 20.0,
-    }];
-    let batch = state
-        .store
-        .insert_observations(&a.id, &moved, t)
-        .await
-        .expect("insert")
-        .expect("mission");
+    let batch = insert_one(&state, &a, "0", t, 38.1455, -76.429).await;
     assert_eq!(batch.seq, 51);
     live.apply(&state, &batch).await.expect("apply");
     let (young, lag) = live
@@ -181,20 +180,7 @@ async fn a_plan_takes_the_published_snapshot_while_a_batch_is_young_and_waits_on
 /// Batch `k` (52, 53, ...) of mission "a": obstacle "0" one tick further on.
 async fn batch_number(state: &AppState, m: &Mission, k: i64) -> StoredBatch {
     let t = 1_700_000_000.0 + 0.2 * (k - 1) as f64;
-    let rows = [ObservationRow {
-        obstacle_id: "0".into(),
-        t_s: t,
-        lat_deg: 38.145 + 0.0001 * (k - 1) as f64,
-        lon_deg: -76.429,
-        alt_msl_m: 60.0,
-        radius_m: 20.0,
-    }];
-    let batch = state
-        .store
-        .insert_observations(&m.id, &rows, t)
-        .await
-        .expect("insert")
-        .expect("mission");
+    let batch = insert_one(state, m, "0", t, 38.145 + 0.0001 * (k - 1) as f64, -76.429).await;
     assert_eq!(batch.seq, k);
     batch
 }
