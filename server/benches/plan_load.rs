@@ -46,16 +46,12 @@ fn pct(v: &mut [f64], p: f64) -> f64 {
     v[((v.len() as f64 - 1.0) * p).round() as usize]
 }
 
-/// Metres per degree of latitude and (at the field) of longitude, for the flier's local frame.
-const M_PER_DEG_LAT: f64 = 110_540.0;
-
 /// The aircraft of `JINK_PLAN_FLY=1`: it flies the stack of the latest plan at 18 m/s,
 /// turning at most at the rate a 35 m radius allows, and goes on to the next item within
 /// 20 m of it or once past it (as an autopilot does), at 4 m/s of climb. Positions are
-/// metres east and north of where it starts.
+/// metres east and north of where it starts (the project's ENU frame anchored there).
 struct Flier {
-    origin: [f64; 2],
-    m_per_deg_lon: f64,
+    frame: wire::geodesy::LocalFrame,
     p_m: [f64; 2],
     alt_m: f64,
     heading_rad: f64,
@@ -71,8 +67,7 @@ impl Flier {
 
     fn new(lat: f64, lon: f64, alt_m: f64, heading_deg: f64) -> Self {
         Self {
-            origin: [lat, lon],
-            m_per_deg_lon: 111_320.0 * lat.to_radians().cos(),
+            frame: wire::geodesy::LocalFrame::new(lat, lon),
             p_m: [0.0, 0.0],
             alt_m,
             heading_rad: (90.0 - heading_deg).to_radians(),
@@ -80,20 +75,6 @@ impl Flier {
             current: 1,
             leg_start_m: [0.0, 0.0],
         }
-    }
-
-    fn to_m(&self, lat: f64, lon: f64) -> [f64; 2] {
-        [
-            (lon - self.origin[1]) * self.m_per_deg_lon,
-            (lat - self.origin[0]) * M_PER_DEG_LAT,
-        ]
-    }
-
-    fn lat_lon(&self) -> (f64, f64) {
-        (
-            self.origin[0] + self.p_m[1] / M_PER_DEG_LAT,
-            self.origin[1] + self.p_m[0] / self.m_per_deg_lon,
-        )
     }
 
     /// Takes the stack of a plan answer (`waypoints`, `current_index`).
@@ -104,7 +85,9 @@ impl Flier {
         let stack: Vec<[f64; 3]> = items
             .iter()
             .map(|w| {
-                let p = self.to_m(w["lat"].as_f64().unwrap(), w["lon"].as_f64().unwrap());
+                let p = self
+                    .frame
+                    .to_enu(w["lat"].as_f64().unwrap(), w["lon"].as_f64().unwrap());
                 [p[0], p[1], w["alt_msl_m"].as_f64().unwrap()]
             })
             .collect();
@@ -145,7 +128,7 @@ impl Flier {
 
     /// Its telemetry sample at flight time `t`.
     fn sample(&self, t: f64) -> Value {
-        let (lat, lon) = self.lat_lon();
+        let (lat, lon) = self.frame.to_geodetic(self.p_m);
         let heading_deg = (90.0 - self.heading_rad.to_degrees()).rem_euclid(360.0);
         json!({"t": t, "lat": lat, "lon": lon, "alt_msl_m": self.alt_m,
                "heading_deg": heading_deg, "speed_mps": Self::SPEED_MPS})
