@@ -19,6 +19,11 @@
 //!   flies the answer.
 //! - `server-bare` tells the service the least a client can: its telemetry carries no speed
 //!   (the interop telemetry forms have none) and its plan requests no `aircraft`.
+//! - `server-mission` keeps no revision, as a client that reads DESIGN.md's default would:
+//!   each plan request goes without `base_revision` (the mission's own waypoints) and with
+//!   `current_index` the mission index of the next mission waypoint of the stack it flies
+//!   (the waypoint count once none is left), and the answer is flown from its own
+//!   `current_index`.
 //!
 //! The simulated clock stops while a request is answered, as it does for `mc-auto`, so the
 //! plan the aircraft flies is the one computed for the moment it was asked.
@@ -107,6 +112,7 @@ pub fn start() -> Result<Service, String> {
     sim::strategy::register_server(Box::new(move |kind, seed| {
         Box::new(HttpPlanner {
             bare: kind == sim::strategy::StrategyKind::ServerBare,
+            mission_only: kind == sim::strategy::StrategyKind::ServerMission,
             handle: handle.clone(),
             client: client.clone(),
             base: b.clone(),
@@ -138,6 +144,9 @@ struct HttpPlanner {
     seed: u64,
     /// Telemetry without a speed, plan requests without `aircraft` (`server-bare`).
     bare: bool,
+    /// Plan requests without `base_revision`, `current_index` in the mission's waypoints
+    /// (`server-mission`).
+    mission_only: bool,
     frame: LocalFrame,
     mission_id: Option<String>,
     revision: i64,
@@ -255,6 +264,16 @@ impl HttpPlanner {
             && let Some(o) = body.as_object_mut()
         {
             o.remove("aircraft");
+        }
+        if self.mission_only
+            && let Some(o) = body.as_object_mut()
+        {
+            o.remove("base_revision");
+            let next = view
+                .stack
+                .next_mission_index()
+                .unwrap_or(view.mission.waypoints.len());
+            o.insert("current_index".into(), json!(next));
         }
         let answer = self
             .post(&format!("/api/v1/missions/{id}/plan"), &body)

@@ -47,8 +47,10 @@ pub struct SimulateArgs {
 
     /// Strategies, comma-separated (default: all but `server`): none, insertion, tangent, cv,
     /// mc-nofly, mc-random, mc-advanced, mc-memory, mc-auto, offset, sectors, oracle, and
-    /// `server` (`mc-auto` asked of an in-process `jink serve` over HTTP) and `server-bare`
-    /// (the same client sending no speed and no aircraft parameters).
+    /// `server` (`mc-auto` asked of an in-process `jink serve` over HTTP), `server-bare`
+    /// (the same client sending no speed and no aircraft parameters) and `server-mission`
+    /// (the same client keeping no revision: no `base_revision`, `current_index` the next
+    /// mission waypoint's index).
     #[arg(long, value_delimiter = ',')]
     pub strategies: Option<Vec<String>>,
 
@@ -176,10 +178,12 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         }
     };
     // The `server` strategy flies against the real service, started here for the runs.
-    let service = if strategies
-        .iter()
-        .any(|k| matches!(k, StrategyKind::Server | StrategyKind::ServerBare))
-    {
+    let service = if strategies.iter().any(|k| {
+        matches!(
+            k,
+            StrategyKind::Server | StrategyKind::ServerBare | StrategyKind::ServerMission
+        )
+    }) {
         match super::sim_service::start() {
             Ok(s) => Some(s),
             Err(e) => {

@@ -84,6 +84,55 @@ fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
 }
 
 #[test]
+fn a_client_keeping_no_revision_names_mission_waypoints_and_captures_every_one() {
+    // `server-mission` sends no `base_revision` and the mission index of the next mission
+    // waypoint as `current_index` (DESIGN.md's default: the mission's own waypoints), and
+    // flies each answer from the answer's `current_index`. The answers insert avoid items,
+    // so stack indices and mission indices part: a client or service mixing the two skips
+    // mission waypoints.
+    let dir = tempfile::tempdir().unwrap();
+    let out = simulate(
+        &[
+            "--family",
+            "mixed",
+            "--first-seed",
+            "1",
+            "--seeds",
+            "1",
+            "--strategies",
+            "server-mission",
+            "--no-plot",
+            "--quiet",
+            "--threads",
+            "1",
+        ],
+        dir.path(),
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("over HTTP; 0 requests failed"), "{stdout}");
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+            .unwrap();
+    let run = report["runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r[1]["strategy"] == "server_mission")
+        .unwrap_or_else(|| panic!("no server_mission run in {report}"));
+    let m = &run[1]["metrics"];
+    assert!(m["avoid_targets"].as_u64().unwrap() >= 3, "{m}");
+    assert!(m["completed"].as_bool().unwrap(), "{m}");
+    assert_eq!(m["waypoints_captured"], m["waypoints"], "{m}");
+    assert_eq!(m["spheres_hit"], 0, "{m}");
+    assert_eq!(m["cylinders_hit"], 0, "{m}");
+}
+
+#[test]
 fn a_simulated_aircraft_flag_out_of_range_is_refused_naming_the_flag() {
     for (flag, value, range) in [
         ("--aircraft-speed", "2", "[5, 100] m/s"),

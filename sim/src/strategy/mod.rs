@@ -129,16 +129,21 @@ pub enum StrategyKind {
     /// telemetry without a speed (as the interop telemetry forms send it) and plan requests
     /// without `aircraft` (the service's defaults: 20 m/s, 40 m turn radius).
     ServerBare,
+    /// [`StrategyKind::Server`] as a client that keeps no revision: every plan request
+    /// goes without `base_revision` (the mission's own waypoints, DESIGN.md's default),
+    /// with `current_index` the mission index of the next mission waypoint of the stack it
+    /// flies, and flies each answer from the answer's `current_index`.
+    ServerMission,
 }
 
-/// Builds the [`StrategyKind::Server`] or [`StrategyKind::ServerBare`] strategy for one
-/// run from the run's seed.
+/// Builds the [`StrategyKind::Server`], [`StrategyKind::ServerBare`] or
+/// [`StrategyKind::ServerMission`] strategy for one run from the run's seed.
 pub type ServerFactory = Box<dyn Fn(StrategyKind, u64) -> Box<dyn Strategy> + Send + Sync>;
 
 static SERVER: std::sync::OnceLock<ServerFactory> = std::sync::OnceLock::new();
 
-/// Registers how [`StrategyKind::Server`] and [`StrategyKind::ServerBare`] are built (once
-/// per process).
+/// Registers how [`StrategyKind::Server`], [`StrategyKind::ServerBare`] and
+/// [`StrategyKind::ServerMission`] are built (once per process).
 ///
 /// # Errors
 /// The factory given back when one is registered already.
@@ -193,6 +198,7 @@ impl StrategyKind {
             Self::Oracle => "oracle",
             Self::Server => "server",
             Self::ServerBare => "server-bare",
+            Self::ServerMission => "server-mission",
         }
     }
 
@@ -200,7 +206,7 @@ impl StrategyKind {
     pub fn parse(s: &str) -> Option<Self> {
         Self::ALL
             .into_iter()
-            .chain([Self::Server, Self::ServerBare])
+            .chain([Self::Server, Self::ServerBare, Self::ServerMission])
             .find(|k| k.name() == s)
     }
 
@@ -222,7 +228,7 @@ impl StrategyKind {
                 reactive::Onboard::new(reactive::Sectors::default()),
             )),
             Self::Oracle => Box::new(oracle::Oracle::new(seed)),
-            Self::Server | Self::ServerBare => SERVER.get().map_or_else(
+            Self::Server | Self::ServerBare | Self::ServerMission => SERVER.get().map_or_else(
                 || Box::new(Unregistered) as Box<dyn Strategy>,
                 |f| f(self, seed),
             ),
