@@ -332,6 +332,17 @@ async fn create_plan(
         base_watch = base_inputs.watch;
         (stack, out.current_index, target)
     };
+    // A client that keeps no revision (no `base_revision`: each plan from the mission's own
+    // waypoints, `current_index` a mission index) still gets the clock of the waypoint it
+    // flies toward: the latest revision's, when that revision pursued the same mission
+    // waypoint. Without it every such plan started the clock again, and putting a waypoint
+    // off was never bounded (`jink simulate --strategies server-mission`: Webster Field with
+    // mixed spheres ran out of time in 2 of 40 runs, 786 and 872 avoid targets).
+    let latest_pursued = if body.base_revision.is_none() && latest > 0 {
+        latest_pursuit(&state, &id, latest).await?
+    } else {
+        None
+    };
     let stack_len = if stack.is_empty() {
         mission.content.waypoints.len()
     } else {
@@ -414,6 +425,12 @@ async fn create_plan(
     let next = next_fixed(&stack, mission.content.waypoints.len(), current_index);
     let target_since_s = match (next, base_target) {
         (Some(k), Some((base_k, since))) if k == base_k => Some(since),
+        // No base: `k` is the mission index of the waypoint flown toward.
+        (Some(k), None) if stack.is_empty() => Some(
+            latest_pursued
+                .filter(|&(m, _)| m == k)
+                .map_or(start.at.t_s, |(_, since)| since),
+        ),
         (Some(_), _) => Some(start.at.t_s),
         (None, _) => None,
     };
@@ -639,6 +656,27 @@ pub fn router() -> OpenApiRouter<AppState> {
 
 /// Index of the first fixed item (not an avoid item) at or after `current_index` in
 /// `stack`, or in the mission's own `mission_len` waypoints when `stack` is empty.
+/// The mission waypoint revision `revision` pursued (the mission index of its next fixed
+/// item) and since when, on the start's clock; `None` when it pursued none or recorded no
+/// clock.
+async fn latest_pursuit(
+    state: &AppState,
+    id: &MissionId,
+    revision: i64,
+) -> Result<Option<(usize, f64)>, ApiError> {
+    let Some(row) = state.store.get_plan_by_revision(id, revision).await? else {
+        return Ok(None);
+    };
+    let out = stored_plan_out(&row)?;
+    let Some(since) = stored_inputs(&row)?.target_since_s else {
+        return Ok(None);
+    };
+    let stack: Vec<GeoItem> = out.waypoints.iter().map(GeoItem::from).collect();
+    Ok(next_fixed(&stack, 0, out.current_index)
+        .and_then(|k| stack[k].mission_index)
+        .map(|m| (m, since)))
+}
+
 fn next_fixed(stack: &[GeoItem], mission_len: usize, current_index: usize) -> Option<usize> {
     if stack.is_empty() {
         return (current_index < mission_len).then_some(current_index);

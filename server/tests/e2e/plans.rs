@@ -16,6 +16,7 @@ both_stores!(
     a_stored_plan_replays_identically_even_after_more_telemetry,
     the_search_area_ladder_covers_the_search_grid_with_validated_parameters,
     the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_revision,
+    a_client_keeping_no_revision_keeps_the_clock_of_the_waypoint_it_flies_toward,
     a_start_without_a_reported_speed_flies_at_the_speed_its_telemetry_shows,
     without_a_turn_radius_the_plan_turns_at_the_bank_the_telemetry_has_shown,
     a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice,
@@ -626,6 +627,62 @@ async fn the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_re
     )
     .await;
     assert_eq!(p3["target_pending_s"], 0.0, "{p3}");
+}
+
+/// A client that sends no `base_revision` plans from the mission's own waypoints every time
+/// (`current_index` a mission index): the clock of the waypoint it flies toward is carried
+/// from the latest revision when that one pursued the same mission waypoint, so putting it
+/// off stays bounded; another waypoint starts its own clock, and the stored plan replays.
+async fn a_client_keeping_no_revision_keeps_the_clock_of_the_waypoint_it_flies_toward(app: App) {
+    let id = webster_with_traffic(&app).await;
+    let telemetry_at = |t: f64| {
+        let (app, id) = (&app, &id);
+        async move {
+            let body = json!({"t": t, "lat": AIRCRAFT.0, "lon": AIRCRAFT.1, "alt_msl_m": 60.96,
+                              "heading_deg": 60.0, "speed_mps": AIRCRAFT.2});
+            let r = app
+                .post_json(&format!("/api/v1/missions/{id}/telemetry"), &body)
+                .await;
+            assert_eq!(r.status(), 202);
+        }
+    };
+    // The first plan starts the clock of mission waypoint 1 (telemetry at T0 + 10).
+    let p1 = plan(&app, &id, json!({"seed": 1, "current_index": 1})).await;
+    assert_eq!(p1["target_pending_s"], 0.0, "{p1}");
+    // 30 s later, no base again, still toward mission waypoint 1: 30 s pending.
+    telemetry_at(T0 + 40.0).await;
+    let p2 = plan(&app, &id, json!({"seed": 2, "current_index": 1})).await;
+    assert_eq!(p2["revision"], 2, "{p2}");
+    assert_eq!(p2["target_pending_s"], 30.0, "{p2}");
+    let plan_id = p2["plan_id"].as_str().unwrap();
+    let replay_path = format!("/api/v1/missions/{id}/plans/{plan_id}/replay");
+    let v: Value = app
+        .client
+        .post(app.url(&replay_path))
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    assert_eq!(v["identical"], true, "{v}");
+    // Toward mission waypoint 2 the clock starts again ...
+    telemetry_at(T0 + 45.0).await;
+    let p3 = plan(&app, &id, json!({"seed": 3, "current_index": 2})).await;
+    assert_eq!(p3["target_pending_s"], 0.0, "{p3}");
+    // ... and runs from there.
+    telemetry_at(T0 + 50.0).await;
+    let p4 = plan(&app, &id, json!({"seed": 4, "current_index": 2})).await;
+    assert_eq!(p4["target_pending_s"], 5.0, "{p4}");
+    // A plan from the latest revision itself is unchanged: its own clock.
+    let past = next_mission_item(&p4, 2);
+    let p5 = plan(
+        &app,
+        &id,
+        json!({"seed": 5, "base_revision": 4, "current_index": past}),
+    )
+    .await;
+    assert_eq!(p5["target_pending_s"], 5.0, "{p5}");
 }
 
 /// Telemetry in a form that carries no speed (as the interop forms): the plan's start takes
