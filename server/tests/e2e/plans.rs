@@ -574,20 +574,31 @@ fn next_mission_item(plan: &Value, from: usize) -> usize {
         .expect("a mission waypoint is left")
 }
 
+/// Posts the aircraft still at waypoint 0 (`AIRCRAFT`, heading 60 degrees), reporting at `t`.
+async fn aircraft_at_waypoint_0(app: &App, id: &str, t: f64) {
+    let body = json!({"t": t, "lat": AIRCRAFT.0, "lon": AIRCRAFT.1, "alt_msl_m": 60.96,
+                      "heading_deg": 60.0, "speed_mps": AIRCRAFT.2});
+    let r = app
+        .post_json(&format!("/api/v1/missions/{id}/telemetry"), &body)
+        .await;
+    assert_eq!(r.status(), 202);
+}
+
+/// Replays stored plan `plan_id` of mission `id`: the answer (200).
+async fn replay(app: &App, id: &str, plan_id: &str) -> Value {
+    let r = app
+        .client
+        .post(app.url(&format!("/api/v1/missions/{id}/plans/{plan_id}/replay")))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), 200);
+    r.json().await.unwrap()
+}
+
 async fn the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_revision(app: App) {
     let id = webster_with_traffic(&app).await;
-    // The aircraft still at waypoint 0, reporting at `t`.
-    let telemetry_at = |t: f64| {
-        let (app, id) = (&app, &id);
-        async move {
-            let body = json!({"t": t, "lat": AIRCRAFT.0, "lon": AIRCRAFT.1, "alt_msl_m": 60.96,
-                              "heading_deg": 60.0, "speed_mps": AIRCRAFT.2});
-            let r = app
-                .post_json(&format!("/api/v1/missions/{id}/telemetry"), &body)
-                .await;
-            assert_eq!(r.status(), 202);
-        }
-    };
+    let telemetry_at = |t: f64| aircraft_at_waypoint_0(&app, &id, t);
     // The first plan starts the clock of its next waypoint (telemetry at T0 + 10).
     let p1 = plan(&app, &id, json!({"seed": 1, "current_index": 1})).await;
     assert_eq!(p1["target_pending_s"], 0.0, "{p1}");
@@ -606,16 +617,7 @@ async fn the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_re
         .get_json(&format!("/api/v1/missions/{id}/plans/{plan_id}"))
         .await;
     assert_eq!(stored["target_pending_s"], 30.0, "{stored}");
-    let replay_path = format!("/api/v1/missions/{id}/plans/{plan_id}/replay");
-    let v: Value = app
-        .client
-        .post(app.url(&replay_path))
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let v = replay(&app, &id, plan_id).await;
     assert_eq!(v["identical"], true, "{v}");
     // Past that waypoint the next one is new: its clock starts again.
     let past = next_mission_item(&p2, 1) + 1;
@@ -635,17 +637,7 @@ async fn the_time_the_next_waypoint_has_been_pending_is_carried_from_the_base_re
 /// off stays bounded; another waypoint starts its own clock, and the stored plan replays.
 async fn a_client_keeping_no_revision_keeps_the_clock_of_the_waypoint_it_flies_toward(app: App) {
     let id = webster_with_traffic(&app).await;
-    let telemetry_at = |t: f64| {
-        let (app, id) = (&app, &id);
-        async move {
-            let body = json!({"t": t, "lat": AIRCRAFT.0, "lon": AIRCRAFT.1, "alt_msl_m": 60.96,
-                              "heading_deg": 60.0, "speed_mps": AIRCRAFT.2});
-            let r = app
-                .post_json(&format!("/api/v1/missions/{id}/telemetry"), &body)
-                .await;
-            assert_eq!(r.status(), 202);
-        }
-    };
+    let telemetry_at = |t: f64| aircraft_at_waypoint_0(&app, &id, t);
     // The first plan starts the clock of mission waypoint 1 (telemetry at T0 + 10).
     let p1 = plan(&app, &id, json!({"seed": 1, "current_index": 1})).await;
     assert_eq!(p1["target_pending_s"], 0.0, "{p1}");
@@ -655,16 +647,7 @@ async fn a_client_keeping_no_revision_keeps_the_clock_of_the_waypoint_it_flies_t
     assert_eq!(p2["revision"], 2, "{p2}");
     assert_eq!(p2["target_pending_s"], 30.0, "{p2}");
     let plan_id = p2["plan_id"].as_str().unwrap();
-    let replay_path = format!("/api/v1/missions/{id}/plans/{plan_id}/replay");
-    let v: Value = app
-        .client
-        .post(app.url(&replay_path))
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let v = replay(&app, &id, plan_id).await;
     assert_eq!(v["identical"], true, "{v}");
     // Toward mission waypoint 2 the clock starts again ...
     telemetry_at(T0 + 45.0).await;

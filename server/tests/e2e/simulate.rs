@@ -16,8 +16,10 @@ fn simulate(args: &[&str], out: &std::path::Path) -> std::process::Output {
         .unwrap()
 }
 
-#[test]
-fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
+/// `jink simulate` of mixed seed 1 with `strategies` (one thread, no plot), which must
+/// succeed with every request to the service answered: each strategy's metrics, by the
+/// report's strategy name.
+fn mixed_seed_1_over_http(strategies: &str) -> impl Fn(&str) -> Value {
     let dir = tempfile::tempdir().unwrap();
     let out = simulate(
         &[
@@ -28,7 +30,7 @@ fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
             "--seeds",
             "1",
             "--strategies",
-            "mc-auto,server",
+            strategies,
             "--no-plot",
             "--quiet",
             "--threads",
@@ -46,7 +48,7 @@ fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
     let report: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
             .unwrap();
-    let metrics = |strategy: &str| -> Value {
+    move |strategy: &str| -> Value {
         report["runs"]
             .as_array()
             .unwrap()
@@ -54,7 +56,12 @@ fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
             .find(|r| r[1]["strategy"] == strategy)
             .unwrap_or_else(|| panic!("no {strategy} run in {report}"))[1]["metrics"]
             .clone()
-    };
+    }
+}
+
+#[test]
+fn the_service_flown_over_http_flies_as_the_in_process_pipeline_does() {
+    let metrics = mixed_seed_1_over_http("mc-auto,server");
     let (local, served) = (metrics("bisection_auto"), metrics("server"));
     // The obstacles mattered: both moved their avoid point several times.
     for m in [&local, &served] {
@@ -90,41 +97,7 @@ fn a_client_keeping_no_revision_names_mission_waypoints_and_captures_every_one()
     // flies each answer from the answer's `current_index`. The answers insert avoid items,
     // so stack indices and mission indices part: a client or service mixing the two skips
     // mission waypoints.
-    let dir = tempfile::tempdir().unwrap();
-    let out = simulate(
-        &[
-            "--family",
-            "mixed",
-            "--first-seed",
-            "1",
-            "--seeds",
-            "1",
-            "--strategies",
-            "server-mission",
-            "--no-plot",
-            "--quiet",
-            "--threads",
-            "1",
-        ],
-        dir.path(),
-    );
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(stdout.contains("over HTTP; 0 requests failed"), "{stdout}");
-    let report: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
-            .unwrap();
-    let run = report["runs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|r| r[1]["strategy"] == "server_mission")
-        .unwrap_or_else(|| panic!("no server_mission run in {report}"));
-    let m = &run[1]["metrics"];
+    let m = mixed_seed_1_over_http("server-mission")("server_mission");
     assert!(m["avoid_targets"].as_u64().unwrap() >= 3, "{m}");
     assert!(m["completed"].as_bool().unwrap(), "{m}");
     assert_eq!(m["waypoints_captured"], m["waypoints"], "{m}");
