@@ -654,8 +654,6 @@ pub fn router() -> OpenApiRouter<AppState> {
         .routes(routes!(replay_plan))
 }
 
-/// Index of the first fixed item (not an avoid item) at or after `current_index` in
-/// `stack`, or in the mission's own `mission_len` waypoints when `stack` is empty.
 /// The mission waypoint revision `revision` pursued (the mission index of its next fixed
 /// item) and since when, on the start's clock; `None` when it pursued none or recorded no
 /// clock.
@@ -677,6 +675,8 @@ async fn latest_pursuit(
         .map(|m| (m, since)))
 }
 
+/// Index of the first fixed item (not an avoid item) at or after `current_index` in
+/// `stack`, or in the mission's own `mission_len` waypoints when `stack` is empty.
 fn next_fixed(stack: &[GeoItem], mission_len: usize, current_index: usize) -> Option<usize> {
     if stack.is_empty() {
         return (current_index < mission_len).then_some(current_index);
