@@ -332,17 +332,6 @@ async fn create_plan(
         base_watch = base_inputs.watch;
         (stack, out.current_index, target)
     };
-    // A client that keeps no revision (no `base_revision`: each plan from the mission's own
-    // waypoints, `current_index` a mission index) still gets the clock of the waypoint it
-    // flies toward: the latest revision's, when that revision pursued the same mission
-    // waypoint. Without it every such plan started the clock again, and putting a waypoint
-    // off was never bounded (`jink simulate --strategies server-mission`: Webster Field with
-    // mixed spheres ran out of time in 2 of 40 runs, 786 and 872 avoid targets).
-    let latest_pursued = if body.base_revision.is_none() && latest > 0 {
-        latest_pursuit(&state, &id, latest).await?
-    } else {
-        None
-    };
     let stack_len = if stack.is_empty() {
         mission.content.waypoints.len()
     } else {
@@ -422,7 +411,18 @@ async fn create_plan(
     });
     // Putting the next waypoint off is bounded in total (planner::Replan::target_pending_s):
     // the clock runs from the first plan that flew toward it, on the start's clock.
+    // A client that keeps no revision (no `base_revision`: each plan from the mission's own
+    // waypoints, `current_index` a mission index) still gets the clock of the waypoint it
+    // flies toward: the latest revision's, when that revision pursued the same mission
+    // waypoint. Without it every such plan started the clock again, and putting a waypoint
+    // off was never bounded (`jink simulate --strategies server-mission`: Webster Field with
+    // mixed spheres ran out of time in 2 of 40 runs, 786 and 872 avoid targets).
     let next = next_fixed(&stack, mission.content.waypoints.len(), current_index);
+    let latest_pursued = if body.base_revision.is_none() && latest > 0 && next.is_some() {
+        latest_pursuit(&state, &id, latest).await?
+    } else {
+        None
+    };
     let target_since_s = match (next, base_target) {
         (Some(k), Some((base_k, since))) if k == base_k => Some(since),
         // No base: `k` is the mission index of the waypoint flown toward.
