@@ -530,3 +530,71 @@ fn a_route_under_the_near_limit_is_flown_as_it_is_and_one_over_it_goes_round() {
         p.items
     );
 }
+
+#[test]
+fn a_clear_detour_in_flight_gives_way_to_a_shorter_one_round_the_same_conflict() {
+    // Heading north to W0 1500 m ahead; a stationary blob (hard radius 60 m) on the leg
+    // 250 m ahead. The stack in flight goes round it by a long detour (an avoid point at
+    // (700, 700)), still clear. With a 100 m turn radius the routes built afresh (straight,
+    // bisected) cannot turn off in time and are not clear, so before the rule the detour
+    // net never ran and the long detour was flown on.
+    let m = common::open_mission(vec![], &[[0.0, 1500.0]]);
+    let field = Blobs(vec![Blob {
+        p0_m: [0.0, 250.0],
+        v_mps: [0.0, 0.0],
+        radius_m: 60.0,
+        sigma0_m: 10.0,
+        growth_mps: 0.0,
+    }]);
+    let mut stack = mission_stack(&m);
+    stack.insert(0, planner::StackItem::avoid([700.0, 700.0], stack[0].alt_m));
+    let state = AircraftState {
+        heading_rad: std::f64::consts::FRAC_PI_2,
+        ..state_at([0.0, 0.0], 100.0)
+    };
+    let req = |fresh_detours: bool, keep_stack: bool| {
+        let mut r = request(&m, &stack, 0, state, 3);
+        r.aircraft.turn_radius_m = 100.0;
+        r.params.fresh_detours = fresh_detours;
+        r.params.keep_stack = keep_stack;
+        r.params.keep_slack = 1.0;
+        r
+    };
+    let long_m = dist([0.0, 0.0], [700.0, 700.0]) + dist([700.0, 700.0], [0.0, 1500.0]);
+
+    // Without the rule: nothing built afresh beats the stack, which is flown on.
+    let kept = plan(&req(false, false), &field).unwrap();
+    assert_eq!(kept.outcome, PlanOutcome::Exact, "{:?}", kept.verification);
+    assert_eq!(kept.items, stack, "{:?}", kept.items);
+
+    // With it: a detour round the blob itself, clear and far shorter.
+    let p = plan(&req(true, false), &field).unwrap();
+    assert_eq!(p.outcome, PlanOutcome::Exact, "{:?}", p.verification);
+    assert_eq!(
+        p.items.last(),
+        stack.last(),
+        "W0 is still flown: {:?}",
+        p.items
+    );
+    assert!(
+        p.length_m < long_m - 300.0,
+        "{} m against {long_m} m: {:?}",
+        p.length_m,
+        p.items
+    );
+    // Checked independently: the route as a polyline reads no more than the near limit,
+    // sampled every metre, and passes the blob's hard edge with room to spare.
+    let peak = sampled_peak(&field, &state, &p.items, 0);
+    assert!(peak <= 0.1, "the new route reads {peak}: {:?}", p.items);
+    let r = route(&state, &p.items, 0);
+    let pass_m = r
+        .windows(2)
+        .map(|w| dist_point_segment([0.0, 250.0], w[0].0, w[1].0))
+        .fold(f64::INFINITY, f64::min);
+    assert!(pass_m > 60.0 + 20.0, "passes {pass_m} m from the centre");
+
+    // Holding the stack in flight (PlanParams::keep_stack, here while it is at most twice
+    // as long) keeps the long detour whatever the net finds.
+    let held = plan(&req(true, true), &field).unwrap();
+    assert_eq!(held.items, stack, "{:?}", held.items);
+}
