@@ -324,13 +324,10 @@ async fn create_plan(
             .get_plan_by_revision(&id, base_revision)
             .await?
             .ok_or_else(|| ApiError::field("/base_revision", "no such revision"))?;
-        let out = stored_plan_out(&row)?;
-        let stack: Vec<GeoItem> = out.waypoints.iter().map(GeoItem::from).collect();
-        let base_inputs = stored_inputs(&row)?;
-        let target = next_fixed(&stack, 0, out.current_index).zip(base_inputs.target_since_s);
-        base_shown_bank = base_inputs.shown_bank_deg;
-        base_watch = base_inputs.watch;
-        (stack, out.current_index, target)
+        let base = stored_revision(&row)?;
+        base_shown_bank = base.inputs.shown_bank_deg;
+        base_watch = base.inputs.watch;
+        (base.stack, base.current_index, base.pursuit)
     };
     let stack_len = if stack.is_empty() {
         mission.content.waypoints.len()
@@ -665,14 +662,33 @@ async fn latest_pursuit(
     let Some(row) = state.store.get_plan_by_revision(id, revision).await? else {
         return Ok(None);
     };
-    let out = stored_plan_out(&row)?;
-    let Some(since) = stored_inputs(&row)?.target_since_s else {
-        return Ok(None);
-    };
+    let r = stored_revision(&row)?;
+    Ok(r.pursuit
+        .and_then(|(k, since)| r.stack[k].mission_index.map(|m| (m, since))))
+}
+
+/// What a stored revision flew, as the next plan reads it.
+struct StoredRevision {
+    stack: Vec<GeoItem>,
+    current_index: usize,
+    /// Its next fixed item (an index into `stack`) and since when it has been the target.
+    pursuit: Option<(usize, f64)>,
+    /// The inputs it was planned from.
+    inputs: PlanInputs,
+}
+
+/// Reads a stored revision's stack, current index, pursuit and inputs.
+fn stored_revision(row: &PlanRow) -> Result<StoredRevision, ApiError> {
+    let out = stored_plan_out(row)?;
     let stack: Vec<GeoItem> = out.waypoints.iter().map(GeoItem::from).collect();
-    Ok(next_fixed(&stack, 0, out.current_index)
-        .and_then(|k| stack[k].mission_index)
-        .map(|m| (m, since)))
+    let inputs = stored_inputs(row)?;
+    let pursuit = next_fixed(&stack, 0, out.current_index).zip(inputs.target_since_s);
+    Ok(StoredRevision {
+        stack,
+        current_index: out.current_index,
+        pursuit,
+        inputs,
+    })
 }
 
 /// Index of the first fixed item (not an avoid item) at or after `current_index` in
