@@ -20,6 +20,7 @@ use wire::ids::MissionId;
 pub mod group_commit;
 pub mod observations;
 pub mod plans;
+pub mod recent;
 pub mod tokens;
 pub mod wal;
 pub mod writer;
@@ -64,6 +65,8 @@ pub struct Store {
     writer: Option<writer::WriterThread>,
     /// SQLite: what the checkpoints know of the WAL ([`wal`]).
     wal: Option<std::sync::Arc<wal::Wal>>,
+    /// SQLite (one replica): the newest of what a plan reads, in memory ([`recent`]).
+    recent: Option<std::sync::Arc<recent::Recent>>,
 }
 
 /// Errors opening a store.
@@ -165,6 +168,7 @@ impl Store {
             group: None,
             writer: None,
             wal: None,
+            recent: None,
         };
         store.migrate().await?;
         if backend == Backend::Sqlite {
@@ -174,6 +178,7 @@ impl Store {
             let writer = writer::WriterThread::spawn().map_err(|e| OpenError::Connect(e.into()))?;
             store.group = Some(group_commit::GroupCommit::spawn(store.clone(), &writer));
             store.writer = Some(writer);
+            store.recent = Some(std::sync::Arc::new(recent::Recent::default()));
         }
         Ok(store)
     }
@@ -265,6 +270,22 @@ impl Store {
     /// One mission, if it exists.
     #[tracing::instrument(skip(self))]
     pub async fn get_mission(&self, id: &MissionId) -> Result<Option<Mission>, sqlx::Error> {
+        let Some(recent) = &self.recent else {
+            return self.read_mission(id).await;
+        };
+        if let Some(m) = recent.mission(&id.0) {
+            return Ok(Some(Mission::clone(&m)));
+        }
+        let epoch = recent.epoch(&id.0);
+        let m = self.read_mission(id).await?;
+        if let Some(m) = &m {
+            recent.fill_mission(epoch, m);
+        }
+        Ok(m)
+    }
+
+    /// One mission, read from the database.
+    async fn read_mission(&self, id: &MissionId) -> Result<Option<Mission>, sqlx::Error> {
         let row = sqlx::query("SELECT body FROM missions WHERE id = $1")
             .bind(id.to_string())
             .fetch_optional(&self.read)
@@ -296,6 +317,15 @@ impl Store {
     /// Deletes a mission and everything recorded for it. False when it did not exist.
     #[tracing::instrument(skip(self))]
     pub async fn delete_mission(&self, id: &MissionId) -> Result<bool, sqlx::Error> {
+        let deleted = self.delete_mission_here(id).await;
+        // Also on an error: the deletion may have committed.
+        if let Some(recent) = &self.recent {
+            recent.forget(&id.0);
+        }
+        deleted
+    }
+
+    async fn delete_mission_here(&self, id: &MissionId) -> Result<bool, sqlx::Error> {
         let mut tx = self.write.begin().await?;
         for table in CHILD_TABLES {
             let sql = format!("DELETE FROM {table} WHERE mission_id = $1");
@@ -408,17 +438,33 @@ impl Store {
         received_at_s: f64,
     ) -> Result<Option<InsertCounts>, sqlx::Error> {
         let writer = crate::auth::writer();
-        if let Some(g) = &self.group
-            && let Some(r) = g
-                .submit_telemetry(&mission_id.0, rows, received_at_s, &writer)
-                .await
-        {
-            return r;
+        let stored = match &self.group {
+            Some(g) => {
+                g.submit_telemetry(&mission_id.0, rows, received_at_s, &writer)
+                    .await
+            }
+            None => None,
+        };
+        let stored = match stored {
+            Some(r) => r,
+            None => missing_mission(
+                self.insert_telemetry_inner(mission_id, rows, received_at_s, &writer)
+                    .await,
+            ),
+        };
+        if let Some(recent) = &self.recent {
+            match &stored {
+                // No mission: nothing stored.
+                Ok(None) => {}
+                Ok(Some(c)) => recent.telemetry_written(
+                    &mission_id.0,
+                    rows,
+                    c.duplicate == 0 && c.accepted == rows.len() as u64,
+                ),
+                Err(_) => recent.telemetry_written(&mission_id.0, rows, false),
+            }
         }
-        missing_mission(
-            self.insert_telemetry_inner(mission_id, rows, received_at_s, &writer)
-                .await,
-        )
+        stored
     }
 
     async fn insert_telemetry_inner(
@@ -454,6 +500,21 @@ impl Store {
         mission_id: &MissionId,
         last: Option<u32>,
     ) -> Result<Vec<TelemetryRow>, sqlx::Error> {
+        if let Some(recent) = &self.recent
+            && let Some(n) = last.map(|n| n as usize)
+            && n <= recent::TELEMETRY_TAIL
+        {
+            if let Some(rows) = recent.telemetry(&mission_id.0, n) {
+                return Ok(rows);
+            }
+            let epoch = recent.epoch(&mission_id.0);
+            let tail = self
+                .list_telemetry_written(mission_id, Some(recent::TELEMETRY_TAIL as u32))
+                .await?;
+            let tail: Vec<TelemetryRow> = tail.into_iter().map(|(row, _writer)| row).collect();
+            recent.fill_telemetry(&mission_id.0, epoch, &tail);
+            return Ok(tail[tail.len().saturating_sub(n)..].to_vec());
+        }
         let rows = self.list_telemetry_written(mission_id, last).await?;
         Ok(rows.into_iter().map(|(row, _writer)| row).collect())
     }

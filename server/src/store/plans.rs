@@ -51,6 +51,19 @@ impl Store {
     /// caught by [`Store::insert_plan`]'s unique revision (409), as before.
     #[tracing::instrument(skip(self))]
     pub async fn latest_plan_revision(&self, mission_id: &MissionId) -> Result<i64, sqlx::Error> {
+        let Some(recent) = &self.recent else {
+            return self.read_latest_plan_revision(mission_id).await;
+        };
+        if let Some(r) = recent.latest_revision(&mission_id.0) {
+            return Ok(r);
+        }
+        let epoch = recent.epoch(&mission_id.0);
+        let r = self.read_latest_plan_revision(mission_id).await?;
+        recent.fill_latest_revision(&mission_id.0, epoch, r);
+        Ok(r)
+    }
+
+    async fn read_latest_plan_revision(&self, mission_id: &MissionId) -> Result<i64, sqlx::Error> {
         let row = sqlx::query("SELECT COALESCE(MAX(revision), 0) FROM plans WHERE mission_id = $1")
             .bind(mission_id.to_string())
             .fetch_one(&self.read)
@@ -63,6 +76,19 @@ impl Store {
     /// together are stored by one statement, so they share one commit.
     #[tracing::instrument(skip(self, row), fields(mission = %row.mission_id, revision = row.revision))]
     pub async fn insert_plan(&self, row: &PlanRow) -> Result<(), InsertPlanError> {
+        let stored = self.insert_plan_any(row).await;
+        if let Some(recent) = &self.recent {
+            match &stored {
+                Ok(()) => recent.plan_written(row),
+                // The revision was another plan's: its own write told the cache.
+                Err(InsertPlanError::RevisionTaken(_) | InsertPlanError::NoMission) => {}
+                Err(InsertPlanError::Db(_)) => recent.plan_unknown(&row.mission_id.0),
+            }
+        }
+        stored
+    }
+
+    async fn insert_plan_any(&self, row: &PlanRow) -> Result<(), InsertPlanError> {
         if let Some(group) = &self.group
             && let Some(result) = group.submit_plan(row).await
         {
@@ -181,11 +207,21 @@ impl Store {
         mission_id: &MissionId,
         revision: i64,
     ) -> Result<Option<PlanRow>, sqlx::Error> {
-        self.plan_where("revision = $2", mission_id, PlanKey::Revision(revision))
-            .await
+        if let Some(recent) = &self.recent
+            && let Some(row) = recent.plan(&mission_id.0, revision)
+        {
+            return Ok(Some(row));
+        }
+        let row = self
+            .plan_where("revision = $2", mission_id, PlanKey::Revision(revision))
+            .await?;
+        if let (Some(recent), Some(row)) = (&self.recent, &row) {
+            recent.fill_plan(&mission_id.0, row);
+        }
+        Ok(row)
     }
 
-    async fn plan_where(
+    pub(super) async fn plan_where(
         &self,
         cond: &'static str,
         mission_id: &MissionId,
@@ -236,7 +272,7 @@ fn bind_plan<'q>(q: super::AnyQuery<'q>, row: &PlanRow) -> super::AnyQuery<'q> {
         .bind(row.written_by.clone())
 }
 
-enum PlanKey<'a> {
+pub(super) enum PlanKey<'a> {
     Id(&'a str),
     Revision(i64),
 }
