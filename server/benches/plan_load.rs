@@ -14,8 +14,10 @@
 //! `JINK_PLAN_DATABASE_URL` overrides the store (default: a fresh SQLite file).
 //! The aircraft flies its plans: it follows the stack of each plan answer (18 m/s, 35 m
 //! turn radius, the next item within 20 m or once past it), its telemetry is where it is,
-//! and each plan asks for the item it flies to (`current_index`), as a team's ground
-//! station does. `JINK_PLAN_FLY=0` holds it at the first waypoint instead (the benchmark
+//! and each plan names the revision it flies (`base_revision`) and the item of that stack
+//! it flies to (`current_index`), as a team's ground station does (before 2026-11-29 it
+//! sent no `base_revision`, so its index into a revised stack was read as a mission
+//! waypoint's). `JINK_PLAN_FLY=0` holds it at the first waypoint instead (the benchmark
 //! before 2026-11-28): the spheres then circle past an aircraft that never gets away, so
 //! half the plans find no clear route and run the safety net, which takes several times as
 //! long. Each phase prints its plans by outcome with their `compute_ms`, and where the
@@ -59,6 +61,8 @@ struct Flier {
     stack: Vec<[f64; 3]>,
     current: usize,
     leg_start_m: [f64; 2],
+    /// The revision of the latest plan (0 before the first).
+    revision: i64,
 }
 
 impl Flier {
@@ -74,6 +78,7 @@ impl Flier {
             stack: Vec::new(),
             current: 1,
             leg_start_m: [0.0, 0.0],
+            revision: 0,
         }
     }
 
@@ -98,6 +103,7 @@ impl Flier {
         }
         self.stack = stack;
         self.current = current;
+        self.revision = plan["revision"].as_i64().unwrap_or(self.revision);
     }
 
     /// Flies `dt_s` seconds.
@@ -263,8 +269,14 @@ async fn fly(
         if i % (5 / plan_hz) == 0 {
             let s = Instant::now();
             let plan = client.post(format!("{base}/api/v1/missions/{id}/plan"));
-            let current_index = flier.as_deref().map_or(1, Flier::current_index);
-            let body = json!({"seed": 7, "current_index": current_index});
+            // The flying aircraft's ground station names the revision it flies and the
+            // item of that stack it flies to.
+            let body = match flier.as_deref() {
+                Some(f) => {
+                    json!({"seed": 7, "current_index": f.current_index(), "base_revision": f.revision})
+                }
+                None => json!({"seed": 7, "current_index": 1}),
+            };
             let r = expect(plan.json(&body), 201).await;
             let timing = server_timing(&r);
             let v: Value = r.json().await.unwrap();
