@@ -84,6 +84,26 @@ async fn maps_are_built_only_for_map_reads_and_at_most_max_maps_are_kept() {
     assert_eq!(cells(&again), cells(&first));
 }
 
+#[tokio::test]
+async fn a_map_dropped_for_max_maps_is_kept_for_the_next_build() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (state, a, b) = two_missions(&dir).await;
+    let live = &state.live;
+    let first = cells(&live.snapshot(&state, &a).await.expect("snapshot"));
+    assert_eq!(lock(&live.spare_maps).len(), 0);
+    // b's map drops a's (max_maps = 1); nobody reads a's any more, so its allocation is
+    // kept for the next build instead of freed...
+    drop(live.snapshot(&state, &b).await.expect("snapshot"));
+    assert!(!live.cached(&a.id).expect("live").has_map());
+    assert_eq!(lock(&live.spare_maps).len(), 1);
+    // ... which takes it (and b's map, dropped in turn, is kept), the cells the same bit
+    // for bit as the first build's.
+    let again = live.snapshot(&state, &a).await.expect("snapshot");
+    assert_eq!(cells(&again), first);
+    assert_eq!(lock(&live.spare_maps).len(), 1);
+    assert!(!live.cached(&b.id).expect("live").has_map());
+}
+
 /// Stores a batch of one observation of `obstacle_id` (60 m MSL, 20 m radius) at `t_s`
 /// for mission `m`.
 async fn insert_one(
