@@ -1,7 +1,8 @@
 //! The `Server-Timing` response header (W3C Server Timing: `name;dur=MILLISECONDS`,
 //! comma-separated) of the plan and ingest handlers, so that a benchmark (or an operator's
 //! browser tools) sees where a request's time went on the server. Phases:
-//! - `POST .../plan`: `read` (mission, latest revision and telemetry, read at once),
+//! - `POST .../plan`: `read` (mission, latest revision and telemetry, read at once; from
+//!   memory on SQLite),
 //!   `snapshot` (the live snapshot), `pool` (waiting for a plan worker, and the hop to it
 //!   and back), `compute` (the plan itself, its `compute_ms`), `store` (answer and record
 //!   built, plan row written);

@@ -292,7 +292,8 @@ async fn create_plan(
     // Refused at once (503) when the plan pool is full, before any work.
     let ticket = state.plans.admit()?;
     let mut timing = ServerTiming::start();
-    // The three reads a plan needs, at once (each is a round trip to the database).
+    // The three reads a plan needs, at once (on PostgreSQL each is a round trip to the
+    // database; on SQLite they are answered from memory, `store::recent`).
     let (mission, latest, telemetry) = tokio::join!(
         super::missions::load(&state, &id),
         state.store.latest_plan_revision(&id),
