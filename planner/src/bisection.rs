@@ -30,12 +30,18 @@
 //! blocking cylinder) is returned straight at once; the sample count grows with the leg's
 //! variability (a hint in `[0, 1]`, or the segment risk bound when absent) from `samples`
 //! to `max_samples`; a [`Termination`] (deadline or cancel flag) stops the search (anytime: what has been decided is kept,
-//! the rest stays straight) and is checked before each choice is sampled.
+//! the rest stays straight) and is checked before each choice is sampled. A choice stops
+//! sampling as soon as it cannot beat the best mean so far: every term of a sample's score
+//! is non-negative and a sampled path runs through `A`, `C` and `B`, so its running sum plus
+//! the length term of `A -> C -> B` (and the turn cost) for each sample still to draw is a
+//! lower bound of its final sum. The choice made is the same with or without pruning.
 //!
 //! Determinism: all randomness comes from the caller's generator, consumed in a fixed
-//! order. Buffers live in a reusable [`Workspace`]; the hot loop does not allocate.
+//! order; each choice of a node draws from a generator of its own seeded from it, so how
+//! far a pruned choice sampled changes nothing after it. Buffers live in a reusable [`Workspace`]; the hot loop does not allocate.
 
-use rand::Rng;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 use crate::cost::LegEnv;
@@ -152,6 +158,9 @@ struct Ctx<'a, 'e, R: Rng + ?Sized> {
     rng: &'a mut R,
     ws: &'a mut Workspace,
     out: LegSearch,
+    /// Stop sampling a choice that cannot win (always, but in the test that shows it
+    /// changes nothing).
+    prune: bool,
 }
 
 /// Searches the leg `a -> b` flown from `t_a_s` (see the module docs). `variability` in
@@ -167,6 +176,36 @@ pub fn bisect_leg<R: Rng + ?Sized>(
     term: &Termination,
     rng: &mut R,
     ws: &mut Workspace,
+) -> LegSearch {
+    search_leg(
+        env,
+        a,
+        b,
+        t_a_s,
+        turn_radius_m,
+        params,
+        variability,
+        term,
+        rng,
+        ws,
+        true,
+    )
+}
+
+/// [`bisect_leg`], pruning choices that cannot win or not (the same points either way).
+#[allow(clippy::too_many_arguments)]
+fn search_leg<R: Rng + ?Sized>(
+    env: &LegEnv<'_>,
+    a: Point,
+    b: Point,
+    t_a_s: f64,
+    turn_radius_m: f64,
+    params: &BisectionParams,
+    variability: Option<f64>,
+    term: &Termination,
+    rng: &mut R,
+    ws: &mut Workspace,
+    prune: bool,
 ) -> LegSearch {
     let bound = threat(env, a, b, t_a_s);
     let blocked = blocking_cylinder(env, a, b).is_some();
@@ -189,6 +228,7 @@ pub fn bisect_leg<R: Rng + ?Sized>(
             evaluations: 17,
             ..LegSearch::default()
         },
+        prune,
     };
     node(&mut ctx, a, b, t_a_s, 1);
     ctx.out
@@ -306,6 +346,10 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
     // choice whose running sum already exceeds it times the sample count cannot win and
     // stops sampling (exact pruning; the straight choice first, then outwards).
     let mut best_mean = f64::INFINITY;
+    // Each choice samples from a generator of its own, seeded from the leg's generator
+    // in a fixed order: how many samples a pruned choice drew does not change the samples
+    // of the next, so pruning never changes the choice made.
+    let choice_seeds: [u64; CHOICES] = std::array::from_fn(|_| ctx.rng.next_u64());
     for k in CHOICE_ORDER {
         let c = add(m, scale(n, (k as f64 - 2.0) * delta));
         if !env.zones.contains(c) {
@@ -341,10 +385,24 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
                         > 2.0 * sigma + 1e-6
             });
         let mut sum = 0.0;
-        let cutoff = best_mean * ctx.samples as f64 + 1e-9;
+        let cutoff = if ctx.prune {
+            best_mean * ctx.samples as f64 + 1e-9
+        } else {
+            f64::INFINITY
+        };
         let mut pruned = false;
-        for _ in 0..ctx.samples {
-            sample_path(ctx, a, c, b, sigma, np);
+        // Every sampled path runs through A, C and B, so a sample scores at least the
+        // length term of A -> C -> B plus the turn cost (exposure and hard violations are
+        // non-negative): a choice whose samples still to draw cannot bring its mean under
+        // the best is stopped before drawing them, and one that never could is not sampled.
+        let floor = (params.length_weight * (ac + cb) + turn_cost) * (1.0 - 1e-9);
+        let mut rng = ChaCha8Rng::seed_from_u64(choice_seeds[k]);
+        for j in 0..ctx.samples {
+            if sum + (ctx.samples - j) as f64 * floor > cutoff {
+                pruned = true;
+                break;
+            }
+            sample_path(&mut ctx.ws, &mut rng, a, c, b, sigma, np);
             let s = score_sample(ctx, t_a, zone_safe) + turn_cost;
             sum += s;
             if s < best_sample[k] {
@@ -393,15 +451,15 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
 }
 
 /// Fills `ws.sample` with `A, (np-1 points), C, (np-1 points), B`.
-fn sample_path<R: Rng + ?Sized>(
-    ctx: &mut Ctx<'_, '_, R>,
+fn sample_path(
+    ws: &mut Workspace,
+    rng: &mut ChaCha8Rng,
     a: Point,
     c: Point,
     b: Point,
     sigma: f64,
     np: usize,
 ) {
-    let Ctx { ws, rng, .. } = ctx;
     if ws.envelope.len() != np - 1 {
         ws.envelope.clear();
         ws.envelope.extend((1..np).map(|i| {
@@ -421,7 +479,7 @@ fn sample_path<R: Rng + ?Sized>(
         };
         for i in 1..np {
             let f = i as f64 / np as f64;
-            let z: f64 = StandardNormal.sample(&mut **rng);
+            let z: f64 = StandardNormal.sample(rng);
             let y = ws.envelope[i - 1] * z.clamp(-2.0, 2.0) * sigma;
             ws.sample.push(add(lerp(p, q, f), scale(nn, y)));
         }
@@ -583,5 +641,69 @@ mod tests {
         let run = |seed| search(&e, seed).points;
         assert_eq!(run(3), run(3));
         assert_ne!(run(3), run(4));
+    }
+
+    /// Discs of risk `level` moving at constant velocity: `(x, y, vx, vy, radius, level)`.
+    struct Movers(Vec<(f64, f64, f64, f64, f64, f64)>);
+    impl RiskField for Movers {
+        fn risk(&self, p: [f64; 2], t: f64) -> f64 {
+            let mut free = 1.0;
+            for &(x, y, vx, vy, r, level) in &self.0 {
+                if dist(p, [x + vx * t, y + vy * t]) < r {
+                    free *= 1.0 - level;
+                }
+            }
+            1.0 - free
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// Pruning (a choice stopped once its samples still to draw cannot bring its mean
+        /// under the best, by the running sum or by the length of A -> C -> B) changes no
+        /// point of the search: each choice samples from its own generator.
+        #[test]
+        fn pruning_choices_that_cannot_win_changes_no_point(
+            movers in proptest::collection::vec(
+                (0.0..1000.0f64, -300.0..300.0f64, -20.0..20.0f64, -20.0..20.0f64, 20.0..150.0f64, 0.05..1.0f64),
+                1..6,
+            ),
+            cyl in proptest::collection::vec((100.0..900.0f64, -200.0..200.0f64, 10.0..80.0f64), 0..3),
+            end in (600.0..1400.0f64, -300.0..300.0f64),
+            seed in 0u64..1000,
+            turn in 0.0..80.0f64,
+            zoned in proptest::bool::ANY,
+        ) {
+            let field = Movers(movers);
+            let cylinders: Vec<Cylinder> = cyl
+                .iter()
+                .map(|&(x, y, r)| Cylinder { center_m: [x, y], radius_m: r, top_m: 500.0 })
+                .collect();
+            let zones = if zoned {
+                Zones::single(&[[-200.0, -450.0], [1600.0, -450.0], [1600.0, 450.0], [-200.0, 450.0]])
+            } else {
+                Zones::default()
+            };
+            let e = LegEnv { cylinders: &cylinders, ..env(&field, &zones) };
+            let run = |prune: bool| {
+                let mut rng = ChaCha8Rng::seed_from_u64(seed);
+                search_leg(
+                    &e,
+                    [0.0, 0.0],
+                    [end.0, end.1],
+                    0.0,
+                    turn,
+                    &BisectionParams::default(),
+                    None,
+                    &Termination::default(),
+                    &mut rng,
+                    &mut Workspace::default(),
+                    prune,
+                )
+            };
+            let (pruned, full) = (run(true), run(false));
+            proptest::prop_assert_eq!(&pruned.points, &full.points);
+            proptest::prop_assert!(pruned.evaluations <= full.evaluations);
+        }
     }
 }
