@@ -134,6 +134,8 @@ pub struct Workspace {
     /// ([`sample_path`]), kept for the `np` it was made for: one `sin` per point of every
     /// sample path was a sixth of a plan's time on the bench.
     envelope: Vec<f64>,
+    /// Sample every choice in full (the test that shows pruning changes nothing).
+    no_prune: bool,
 }
 
 /// Result of searching one leg.
@@ -158,9 +160,6 @@ struct Ctx<'a, 'e, R: Rng + ?Sized> {
     rng: &'a mut R,
     ws: &'a mut Workspace,
     out: LegSearch,
-    /// Stop sampling a choice that cannot win (always, but in the test that shows it
-    /// changes nothing).
-    prune: bool,
 }
 
 /// Searches the leg `a -> b` flown from `t_a_s` (see the module docs). `variability` in
@@ -176,36 +175,6 @@ pub fn bisect_leg<R: Rng + ?Sized>(
     term: &Termination,
     rng: &mut R,
     ws: &mut Workspace,
-) -> LegSearch {
-    search_leg(
-        env,
-        a,
-        b,
-        t_a_s,
-        turn_radius_m,
-        params,
-        variability,
-        term,
-        rng,
-        ws,
-        true,
-    )
-}
-
-/// [`bisect_leg`], pruning choices that cannot win or not (the same points either way).
-#[allow(clippy::too_many_arguments)]
-fn search_leg<R: Rng + ?Sized>(
-    env: &LegEnv<'_>,
-    a: Point,
-    b: Point,
-    t_a_s: f64,
-    turn_radius_m: f64,
-    params: &BisectionParams,
-    variability: Option<f64>,
-    term: &Termination,
-    rng: &mut R,
-    ws: &mut Workspace,
-    prune: bool,
 ) -> LegSearch {
     let bound = threat(env, a, b, t_a_s);
     let blocked = blocking_cylinder(env, a, b).is_some();
@@ -228,7 +197,6 @@ fn search_leg<R: Rng + ?Sized>(
             evaluations: 17,
             ..LegSearch::default()
         },
-        prune,
     };
     node(&mut ctx, a, b, t_a_s, 1);
     ctx.out
@@ -385,7 +353,7 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
                         > 2.0 * sigma + 1e-6
             });
         let mut sum = 0.0;
-        let cutoff = if ctx.prune {
+        let cutoff = if !ctx.ws.no_prune {
             best_mean * ctx.samples as f64 + 1e-9
         } else {
             f64::INFINITY
@@ -687,7 +655,7 @@ mod tests {
             let e = LegEnv { cylinders: &cylinders, ..env(&field, &zones) };
             let run = |prune: bool| {
                 let mut rng = ChaCha8Rng::seed_from_u64(seed);
-                search_leg(
+                bisect_leg(
                     &e,
                     [0.0, 0.0],
                     [end.0, end.1],
@@ -697,8 +665,7 @@ mod tests {
                     None,
                     &Termination::default(),
                     &mut rng,
-                    &mut Workspace::default(),
-                    prune,
+                    &mut Workspace { no_prune: !prune, ..Workspace::default() },
                 )
             };
             let (pruned, full) = (run(true), run(false));
