@@ -370,7 +370,7 @@ fn node<R: Rng + ?Sized>(ctx: &mut Ctx<'_, '_, R>, a: Point, b: Point, t_a: f64,
                 pruned = true;
                 break;
             }
-            sample_path(&mut ctx.ws, &mut rng, a, c, b, sigma, np);
+            sample_path(ctx.ws, &mut rng, a, c, b, sigma, np);
             let s = score_sample(ctx, t_a, zone_safe) + turn_cost;
             sum += s;
             if s < best_sample[k] {
