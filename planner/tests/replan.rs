@@ -134,12 +134,12 @@ fn the_map_grid_covers_the_fly_zones_and_home_plus_the_margin() {
     assert_eq!(g.horizon_s, 60.0);
 }
 
-/// Risk 0.2 within 60 m of (500, 0) at every time: a sphere circling near a waypoint.
+/// Risk 0.3 within 60 m of (500, 0) at every time: a sphere circling near a waypoint.
 struct Ring;
 impl predictor::RiskField for Ring {
     fn risk(&self, p: [f64; 2], _t: f64) -> f64 {
         if (p[0] - 500.0).hypot(p[1]) < 60.0 {
-            0.2
+            0.3
         } else {
             0.0
         }
@@ -186,7 +186,7 @@ fn the_time_a_waypoint_has_been_pending_uses_up_the_delay_a_route_may_take_to_re
         "{:?}",
         late.verification
     );
-    assert!((late.verification.peak_risk - 0.2).abs() < 1e-12);
+    assert!((late.verification.peak_risk - 0.3).abs() < 1e-12);
 }
 
 #[test]
