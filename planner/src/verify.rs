@@ -54,7 +54,7 @@ pub struct VerifyParams {
     /// risk up to [`VerifyParams::near_s`], then grows linearly to this at the horizon:
     /// the far prediction is spread thin and is revised every replan, so it is a cost
     /// there, not a wall (receding horizon). Default 0.5 (0.3 until 2026-11-29: 0.5 flew
-    /// about 15 s shorter a run on Webster Field over 1,200 runs, with sphere hits within
+    /// about 16 s shorter a run on Webster Field over 1,200 runs, with sphere hits within
     /// chance; README, "Now: a looser far limit").
     pub far_risk: f64,
     /// The L1 distance of the track-following autopilot the second flown path models,

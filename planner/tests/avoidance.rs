@@ -279,16 +279,19 @@ fn a_detour_through_a_slow_sphere_that_a_threat_filter_would_drop_is_caught() {
     let r = request(&m, &stack);
     let got = replan(&r, Dynamic::Predictor(&p), &cfg, &Termination::none()).unwrap();
     let rt = route(&r.state, &got.plan.items, got.plan.current_index);
-    // Independently: the route clears both spheres' true positions.
-    let fast = clearance(&rt, 10.0, 20.0, 30.0, |t| [300.0, -250.0 + 10.0 * t]);
-    let slow = clearance(&rt, 10.0, 20.0, 30.0, |t| [580.0 + 0.3 * t, -295.0]);
+    // The spheres' true positions, as observed above.
+    let fast_at = |t: f64| [300.0, -250.0 + 10.0 * t];
+    let slow_at = |t: f64| [580.0 + 0.3 * t, -295.0];
+    // Independently: the route clears both.
+    let fast = clearance(&rt, 10.0, 20.0, 30.0, fast_at);
+    let slow = clearance(&rt, 10.0, 20.0, 30.0, slow_at);
     assert!(
         fast > 0.0 && slow > 0.0,
         "fast {fast:.1} m, slow {slow:.1} m: {rt:?}"
     );
     // Not vacuous: the base route meets the fast sphere.
     let base = route(&r.state, &stack, 1);
-    assert!(clearance(&base, 10.0, 20.0, 30.0, |t| [300.0, -250.0 + 10.0 * t]) < 0.0);
+    assert!(clearance(&base, 10.0, 20.0, 30.0, fast_at) < 0.0);
     // Both are in the plan's map (no filter on the base route).
     assert!(got.dynamic.obstacles.iter().all(|o| o.in_map && o.threat));
 
@@ -300,7 +303,7 @@ fn a_detour_through_a_slow_sphere_that_a_threat_filter_would_drop_is_caught() {
         .clone();
     let old = common::replan_on_map(&r, &map, &p, &cfg);
     let ort = route(&r.state, &old.plan.items, old.plan.current_index);
-    let old_slow = clearance(&ort, 10.0, 20.0, 30.0, |t| [580.0 + 0.3 * t, -295.0]);
+    let old_slow = clearance(&ort, 10.0, 20.0, 30.0, slow_at);
     assert!(
         old_slow < 0.0,
         "the filtered plan flies through the slow sphere: {old_slow:.1} m, {:?} {ort:?}",
