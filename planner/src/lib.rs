@@ -57,7 +57,8 @@ pub mod verify;
 pub use insertion::{Circle, InsertOutcome, insert_waypoint};
 pub use mission::{Aircraft, Cylinder, FlyZone, Mission, Waypoint};
 pub use plan::{
-    AircraftState, Plan, PlanOutcome, PlanParams, PlanRequest, Strategy, plan, plan_until,
+    AircraftState, DEFAULT_HORIZON_S, Plan, PlanOutcome, PlanParams, PlanRequest, Strategy, plan,
+    plan_until,
 };
 pub use replan::{
     Dynamic, DynamicSeen, LiveMap, Replan, ReplanConfig, Replanned, SeenObstacle, live_map, replan,

@@ -85,6 +85,19 @@ pub struct VerifyParams {
     /// aircraft circled until the scenario ended (Webster Field with 10 mixed spheres,
     /// seed 28: 7 of 14 waypoints, 700 s with one pending; 14 of 14 with it). Default true.
     pub read_past_horizon: bool,
+    /// Once the next waypoint is overdue (it has been the target for longer than
+    /// [`VerifyParams::delay_credit_s`]), [`crate::replan`] raises the far limit
+    /// ([`VerifyParams::far_risk`]) by this much for every second overdue, up to
+    /// [`VerifyParams::overdue_far_risk_max`]: a risk budget that grows with the wait. The
+    /// near limit (the safe risk within [`VerifyParams::near_s`]) never moves, so the
+    /// aircraft still turns away from what it meets close; what the budget buys is a
+    /// route that commits to the crowded neighbourhood while its far prediction is spread
+    /// thin, instead of a loop that keeps it away for good (issue 10: the runs that ran out
+    /// of time circled 300-500 m from an overdue waypoint with every route's graded peak at
+    /// 2 times the limit). Default 0.01 (from 0.5, 1 is reached 50 s overdue); 0 turns it off.
+    pub overdue_far_risk_per_s: f64,
+    /// The highest far limit the overdue budget reaches. Default 1.
+    pub overdue_far_risk_max: f64,
 }
 
 /// The judges' waypoint capture distance, 100 ft in metres.
@@ -106,6 +119,8 @@ impl Default for VerifyParams {
             acceptance_m: 10.0,
             delay_credit_s: 60.0,
             read_past_horizon: true,
+            overdue_far_risk_per_s: 0.01,
+            overdue_far_risk_max: 1.0,
         }
     }
 }

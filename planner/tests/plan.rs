@@ -78,7 +78,8 @@ fn route(state: &AircraftState, items: &[planner::StackItem], ci: usize) -> Vec<
 }
 
 /// Peak risk of the route flown at 20 m/s from the state, sampled every metre within the
-/// 60 s horizon: an evaluation independent of the planner's own.
+/// default horizon (the span the plan's reported risk covers): an evaluation independent of
+/// the planner's own.
 fn sampled_peak(
     field: &dyn predictor::RiskField,
     st: &AircraftState,
@@ -93,7 +94,7 @@ fn sampled_peak(
         for i in 0..=n {
             let f = i as f64 / n as f64;
             let ti = t + f * l / 20.0;
-            if ti <= st.t_s + 60.0 {
+            if ti <= st.t_s + planner::DEFAULT_HORIZON_S {
                 peak = peak.max(field.risk(planner::geometry::lerp(w[0].0, w[1].0, f), ti));
             }
         }

@@ -131,7 +131,7 @@ fn the_map_grid_covers_the_fly_zones_and_home_plus_the_margin() {
     assert_eq!(g.min_m, [-400.0, -900.0]);
     assert_eq!(g.max_m, [2400.0, 900.0]);
     assert_eq!(g.cell_m, 10.0);
-    assert_eq!(g.horizon_s, 60.0);
+    assert_eq!(g.horizon_s, 40.0);
 }
 
 /// Risk 0.3 within 60 m of (500, 0) at every time: a sphere circling near a waypoint.
@@ -158,7 +158,10 @@ fn the_time_a_waypoint_has_been_pending_uses_up_the_delay_a_route_may_take_to_re
         planner::StackItem::avoid([250.0, 450.0], 100.0),
         planner::StackItem::mission(1, [500.0, 0.0], 100.0),
     ];
-    let cfg = ReplanConfig::default();
+    // The delay credit alone: the far limit's overdue budget (the next test) off, and a
+    // 60 s horizon, within which the loop meets the ring.
+    let mut cfg = ReplanConfig::default().horizon_s(60.0);
+    cfg.plan.verify.overdue_far_risk_per_s = 0.0;
     let plan_with = |pending: Option<f64>| {
         let r = Replan {
             current_index: 0,
@@ -187,6 +190,63 @@ fn the_time_a_waypoint_has_been_pending_uses_up_the_delay_a_route_may_take_to_re
         late.verification
     );
     assert!((late.verification.peak_risk - 0.3).abs() < 1e-12);
+}
+
+#[test]
+fn an_overdue_waypoint_earns_a_looser_far_limit_but_never_a_looser_near_one() {
+    // The straight stack to the waypoint at (500, 0) inside the ring (risk 0.3), met 22 s
+    // ahead at 20 m/s. The limit there, 0.1 + (far - 0.1) * (22 - 10) / (40 - 10) at the
+    // default 40 s horizon: 0.26 at the default far limit 0.5, so the route is not clear
+    // while the waypoint is within its delay credit (60 s) or only just past it (65 s: far
+    // 0.55, limit 0.28). Pending 200 s, 140 s overdue, the budget (0.01 a second) has
+    // raised the far limit to its cap of 1: 0.46 there, clear.
+    let m = mission();
+    let stack = [planner::StackItem::mission(1, [500.0, 0.0], 100.0)];
+    let plan_with = |cfg: &ReplanConfig, x_m: f64, pending: Option<f64>| {
+        let base = request(&m, &stack, 5);
+        let r = Replan {
+            current_index: 0,
+            strategy: Strategy::None,
+            target_pending_s: pending,
+            state: AircraftState {
+                p_m: [x_m, 0.0],
+                ..base.state
+            },
+            ..base
+        };
+        replan(&r, Dynamic::Field(&Ring), cfg, &Termination::none())
+            .expect("plan")
+            .plan
+            .verification
+    };
+    let cfg = ReplanConfig::default();
+    let safe = cfg.plan.safe_risk;
+    assert_eq!(cfg.plan.verify.overdue_far_risk_per_s, 0.01);
+    assert_eq!(cfg.plan.verify.overdue_far_risk_max, 1.0);
+    assert_eq!(cfg.plan.horizon_s, 40.0);
+    for pending in [None, Some(30.0), Some(60.0), Some(65.0)] {
+        let v = plan_with(&cfg, 0.0, pending);
+        assert!(!v.is_clear(safe), "pending {pending:?}: {v:?}");
+        assert!((v.peak_risk - 0.3).abs() < 1e-12);
+    }
+    let overdue = plan_with(&cfg, 0.0, Some(200.0));
+    assert!(overdue.is_clear(safe), "{overdue:?}");
+    // The graded peak is the risk against the limit where it is met, by hand.
+    let limit = 0.1 + 0.9 * (22.0 - 10.0) / 30.0;
+    assert!(
+        (overdue.graded_peak_risk - 0.3 * safe / limit).abs() < 0.005,
+        "{overdue:?}"
+    );
+    // Without the budget the same wait buys nothing.
+    let mut off = ReplanConfig::default();
+    off.plan.verify.overdue_far_risk_per_s = 0.0;
+    assert!(!plan_with(&off, 0.0, Some(200.0)).is_clear(safe));
+    // Met 7 s ahead (from 300 m east), within the near window: never clear, however late.
+    for pending in [None, Some(200.0), Some(1e4)] {
+        let v = plan_with(&cfg, 300.0, pending);
+        assert!(!v.is_clear(safe), "pending {pending:?}: {v:?}");
+        assert!(v.near_peak_risk > safe, "{v:?}");
+    }
 }
 
 #[test]

@@ -103,6 +103,13 @@ pub enum Strategy {
     None,
 }
 
+/// The default planning horizon, seconds: dynamic risk is read up to this far ahead, and
+/// the service's live risk maps cover it. 40 since 2026-11-29 (60 before): the far
+/// prediction of a 40-60 s arrival is spread so thin over a crowded field that it mostly
+/// sent the aircraft round risk it would never meet (issue 10, Webster Field, 1,200 runs:
+/// see the README's results), and each map is a third cheaper to build and read.
+pub const DEFAULT_HORIZON_S: f64 = 40.0;
+
 /// Planning parameters with documented defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlanParams {
@@ -112,7 +119,8 @@ pub struct PlanParams {
     pub bisection: BisectionParams,
     /// Pre-pass parameters (buffer fraction 0.2, rounds).
     pub prepass: PrepassParams,
-    /// Dynamic risk is looked at up to this many seconds after the telemetry. Default 60.
+    /// Dynamic risk is looked at up to this many seconds after the telemetry. Default
+    /// [`DEFAULT_HORIZON_S`].
     pub horizon_s: f64,
     /// Risk at or below which a plan counts as safe within [`VerifyParams::near_s`] (the
     /// time-graded limit grows from it to [`VerifyParams::far_risk`] at the horizon).
@@ -184,7 +192,7 @@ impl Default for PlanParams {
             strategy: Strategy::Bisection,
             bisection: BisectionParams::default(),
             prepass: PrepassParams::default(),
-            horizon_s: 60.0,
+            horizon_s: DEFAULT_HORIZON_S,
             safe_risk: 0.1,
             variability: None,
             eval_step_m: 10.0,

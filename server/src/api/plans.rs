@@ -243,7 +243,8 @@ pub struct PlanBody {
     pub current_index: Option<usize>,
     /// Aircraft performance.
     pub aircraft: Option<AircraftIn>,
-    /// Prediction horizon, seconds, default 60.
+    /// Prediction horizon, seconds, default 40 (`planner::DEFAULT_HORIZON_S`; the live
+    /// risk map covers it, so a plan with another horizon builds its own map).
     #[schema(exclusive_minimum = 0, maximum = 600)]
     pub horizon_s: Option<f64>,
     /// Plan on the last published risk map while the oldest batch it lacks was accepted
@@ -367,7 +368,7 @@ async fn create_plan(
             format!("must be in [0, {MAX_ACCEPTANCE_RADIUS_M}] m"),
         ));
     }
-    let horizon_s = body.horizon_s.unwrap_or(60.0);
+    let horizon_s = body.horizon_s.unwrap_or(planner::DEFAULT_HORIZON_S);
     if !(horizon_s.is_finite() && horizon_s > 0.0 && horizon_s <= 600.0) {
         return Err(ApiError::field("/horizon_s", "must be in (0, 600]"));
     }

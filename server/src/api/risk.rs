@@ -25,7 +25,7 @@ use wire::ids::MissionId;
 #[into_params(parameter_in = Query)]
 pub(crate) struct RiskParams {
     /// Seconds ahead of the latest aircraft telemetry or obstacle observation (whichever
-    /// is newer), from 0 to the map's horizon (60 s); default 0.
+    /// is newer), from 0 to the map's horizon (40 s); default 0.
     #[param(minimum = 0, maximum = 60)]
     pub t: Option<f64>,
     /// `json` (default). `png` answers 303 to `.../risk/png` (kept for older clients).
@@ -37,7 +37,7 @@ pub(crate) struct RiskParams {
 #[into_params(parameter_in = Query)]
 pub(crate) struct RiskPngParams {
     /// Seconds ahead of the latest aircraft telemetry or obstacle observation (whichever
-    /// is newer), from 0 to the map's horizon (60 s); default 0.
+    /// is newer), from 0 to the map's horizon (40 s); default 0.
     #[param(minimum = 0, maximum = 60)]
     pub t: Option<f64>,
 }

@@ -192,7 +192,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
         seed: args.seed.unwrap_or_else(new_seed),
         strategy: strategy.into(),
         deadline_ms: args.deadline_ms,
-        horizon_s: 60.0,
+        horizon_s: planner::DEFAULT_HORIZON_S,
         aircraft: planner::Aircraft {
             speed_mps: args.speed_mps,
             turn_radius_m: args

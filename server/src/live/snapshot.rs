@@ -25,7 +25,7 @@ pub const SERVICE_CELL_M: f64 = 10.0;
 /// Margin around the fly zones' bounding box, metres.
 pub const SERVICE_MARGIN_M: f64 = 300.0;
 /// Horizon of the live map, seconds (the plans' default horizon).
-pub const LIVE_HORIZON_S: f64 = 60.0;
+pub const LIVE_HORIZON_S: f64 = planner::DEFAULT_HORIZON_S;
 /// Slice interval of the risk maps, seconds.
 pub const SLICE_DT_S: f64 = 1.0;
 /// An obstacle whose newest observation is older than the map's anchor by more than this

@@ -85,7 +85,12 @@ async fn mission_page(
     Ok(Html(
         PAGE_HTML
             .replace("{{TITLE}}", &name)
-            .replace("{{LEGEND_GRADIENT}}", &legend_gradient()),
+            .replace("{{LEGEND_GRADIENT}}", &legend_gradient())
+            // The look-ahead slider spans the live map's horizon.
+            .replace(
+                "{{HORIZON_S}}",
+                &format!("{}", crate::live::snapshot::LIVE_HORIZON_S),
+            ),
     ))
 }
 

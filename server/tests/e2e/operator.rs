@@ -59,6 +59,10 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
         "{html:.300}"
     );
     assert!(!html.contains("{{"), "every placeholder is filled");
+    assert!(
+        html.contains(r#"<input id="ahead" type="range" min="0" max="40""#),
+        "the look-ahead slider spans the live map's 40 s horizon"
+    );
     // No asset from elsewhere (the only URL is the SVG namespace's name).
     for from_elsewhere in ["src=\"http", "href=\"http", "url(http", "@import", "//cdn"] {
         assert!(!html.contains(from_elsewhere), "{from_elsewhere}");
@@ -126,7 +130,7 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
     let opaque = buf.chunks(4).filter(|px| px[3] == 255).count();
     assert!(opaque > 0, "the obstacles' spread is drawn");
     let bad = app
-        .get(&format!("/missions/{id}/risk-layer.png?t=61"))
+        .get(&format!("/missions/{id}/risk-layer.png?t=41"))
         .await;
     let doc = problem(bad, 422).await;
     assert_eq!(doc["errors"][0]["pointer"], "/t", "{doc}");
