@@ -12,6 +12,28 @@ fn the_committed_openapi_document_matches_the_code() {
 }
 
 #[test]
+fn the_risk_look_ahead_is_documented_up_to_the_live_maps_horizon() {
+    // A documented maximum above the horizon makes schema-valid requests answer 422.
+    let doc: serde_json::Value = serde_json::from_str(&server::openapi_json()).unwrap();
+    let mut seen = 0;
+    for (path, ops) in doc["paths"].as_object().unwrap() {
+        for op in ops.as_object().unwrap().values() {
+            for p in op["parameters"].as_array().into_iter().flatten() {
+                if p["name"] == "t" && p["in"] == "query" {
+                    assert_eq!(
+                        p["schema"]["maximum"].as_f64(),
+                        Some(planner::DEFAULT_HORIZON_S),
+                        "{path}"
+                    );
+                    seen += 1;
+                }
+            }
+        }
+    }
+    assert!(seen >= 3, "{seen} look-ahead parameters found");
+}
+
+#[test]
 fn every_response_has_a_description() {
     let doc: serde_json::Value = serde_json::from_str(&server::openapi_json()).unwrap();
     for (path, ops) in doc["paths"].as_object().unwrap() {

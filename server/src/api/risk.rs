@@ -26,7 +26,7 @@ use wire::ids::MissionId;
 pub(crate) struct RiskParams {
     /// Seconds ahead of the latest aircraft telemetry or obstacle observation (whichever
     /// is newer), from 0 to the map's horizon (40 s); default 0.
-    #[param(minimum = 0, maximum = 60)]
+    #[param(minimum = 0, maximum = 40)]
     pub t: Option<f64>,
     /// `json` (default). `png` answers 303 to `.../risk/png` (kept for older clients).
     pub format: Option<RiskFormat>,
@@ -38,7 +38,7 @@ pub(crate) struct RiskParams {
 pub(crate) struct RiskPngParams {
     /// Seconds ahead of the latest aircraft telemetry or obstacle observation (whichever
     /// is newer), from 0 to the map's horizon (40 s); default 0.
-    #[param(minimum = 0, maximum = 60)]
+    #[param(minimum = 0, maximum = 40)]
     pub t: Option<f64>,
 }
 
