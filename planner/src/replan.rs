@@ -418,9 +418,10 @@ pub fn replan(
     let pending = r
         .target_pending_s
         .filter(|p| p.is_finite() && !skipped)
-        .unwrap_or(0.0);
-    let overdue_s = (pending.max(0.0) - params.verify.delay_credit_s).max(0.0);
-    params.verify.delay_credit_s = (params.verify.delay_credit_s - pending.max(0.0)).max(0.0);
+        .unwrap_or(0.0)
+        .max(0.0);
+    let overdue_s = (pending - params.verify.delay_credit_s).max(0.0);
+    params.verify.delay_credit_s = (params.verify.delay_credit_s - pending).max(0.0);
     if overdue_s > 0.0 {
         let v = &mut params.verify;
         v.far_risk = (v.far_risk + v.overdue_far_risk_per_s.max(0.0) * overdue_s)
