@@ -314,3 +314,91 @@ fn a_waypoint_captured_on_the_way_is_skipped_with_the_avoid_items_before_it() {
     assert_eq!(revisit.items.len(), 5, "{:?}", revisit.items);
     assert_eq!(revisit.items[1], stack[0]);
 }
+
+/// Risk 1 across the whole corridor of the test below between x = 450 and 750 from 15 s
+/// to 38 s, none elsewhere or at other times: what a sphere much wider than the corridor
+/// crossing it leaves, without the geometry (the corridor is shut for 23 s and then open).
+struct Gate;
+impl Gate {
+    fn shut(p: [f64; 2], t: f64) -> bool {
+        (450.0..=750.0).contains(&p[0]) && (15.0..=38.0).contains(&t)
+    }
+}
+impl predictor::RiskField for Gate {
+    fn risk(&self, p: [f64; 2], t: f64) -> f64 {
+        if Gate::shut(p, t) { 1.0 } else { 0.0 }
+    }
+}
+
+#[test]
+fn a_hold_circle_is_flown_for_an_overdue_waypoint_and_only_then() {
+    // A corridor 140 m wide east (y from -70 to 70), the aircraft at its west end on the
+    // south side (y = -60) at t = 0, heading east at 20 m/s to the waypoint 2 km on: it
+    // reaches the gate at 22.5 s, while it is shut, and cannot get past it before (x = 750
+    // by 15 s) nor bend its route enough to arrive after 38 s. Only a wait (a hold circle,
+    // 19 s or more) gets it through, and the replan seam turns the hold on only once the
+    // waypoint has been pending longer than the delay credit (60 s). Defaults throughout
+    // (an overdue waypoint's route is also read past the 40 s horizon, at 40 s: open).
+    let mut m = mission();
+    m.fly_zones = vec![common::rect_zone([-70.0, -70.0], [2200.0, 70.0])];
+    m.waypoints = common::waypoints_at_100m(&[[0.0, -60.0], [2000.0, -60.0]]);
+    let stack = mission_stack(&m);
+    let plan_with = |cfg: &ReplanConfig, pending: Option<f64>| {
+        let base = request(&m, &stack, 3);
+        let r = Replan {
+            target_pending_s: pending,
+            state: AircraftState {
+                p_m: [0.0, -60.0],
+                t_s: 0.0,
+                ..base.state
+            },
+            ..base
+        };
+        replan(&r, Dynamic::Field(&Gate), cfg, &Termination::none())
+            .expect("plan")
+            .plan
+    };
+    let cfg = ReplanConfig::default();
+    assert!(!cfg.plan.hold && cfg.plan.hold_overdue);
+    assert_eq!(cfg.plan.verify.delay_credit_s, 60.0);
+    // Within the credit (up to 60 s pending): no hold, and nothing else is clear.
+    for pending in [None, Some(30.0), Some(60.0)] {
+        let p = plan_with(&cfg, pending);
+        assert_ne!(p.outcome, planner::PlanOutcome::Exact, "{pending:?}: {p:?}");
+    }
+    // Overdue: the hold is tried, and the plan is verified clear.
+    for pending in [Some(61.0), Some(200.0)] {
+        let p = plan_with(&cfg, pending);
+        assert_eq!(p.outcome, planner::PlanOutcome::Exact, "{pending:?}: {p:?}");
+        // Checked independently: the route flown at 20 m/s, every metre, to its end.
+        let pts: Vec<[f64; 2]> = std::iter::once([0.0, -60.0])
+            .chain(p.items[p.current_index..].iter().map(|i| i.p_m))
+            .collect();
+        let mut t = 0.0;
+        for w in pts.windows(2) {
+            let l = (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
+            let n = l.ceil().max(1.0) as usize;
+            for i in 0..=n {
+                let f = i as f64 / n as f64;
+                let q = [
+                    w[0][0] + f * (w[1][0] - w[0][0]),
+                    w[0][1] + f * (w[1][1] - w[0][1]),
+                ];
+                let tq = t + f * l / 20.0;
+                assert!(
+                    !Gate::shut(q, tq),
+                    "{pending:?}: at {q:?} at {tq:.1} s, shut"
+                );
+            }
+            t += l / 20.0;
+        }
+        // A wait: the route reaches the gate after it opens (38 s against 22.5 straight),
+        // so it is 15.5 s longer than straight at least.
+        assert!(t >= 2000.0 / 20.0 + 15.5, "{pending:?}: {t:.1} s");
+    }
+    // The rule switched off: overdue, still no hold and nothing clear.
+    let mut off = cfg;
+    off.plan.hold_overdue = false;
+    let p = plan_with(&off, Some(200.0));
+    assert_ne!(p.outcome, planner::PlanOutcome::Exact, "{p:?}");
+}

@@ -174,6 +174,13 @@ pub struct PlanParams {
     /// 1.67 -> 1.83, sphere hits 1 -> 2 in 20 runs); against the true future (the
     /// simulator's oracle) a verified wait is a real one (3 hits -> 1).
     pub hold: bool,
+    /// Turn [`Self::hold`] on for a replan whose next waypoint is overdue (pending longer
+    /// than [`VerifyParams::delay_credit_s`]; [`crate::replan`] reads it, [`crate::plan`]
+    /// does not): a waypoint a sphere keeps sweeping is waited for on a circle verified
+    /// clear instead of looped round for ever. Until then the hold stays as `hold` says.
+    /// Default true (issue 10, Webster Field, 1,200 runs: see the README's "The hold for
+    /// an overdue waypoint").
+    pub hold_overdue: bool,
     /// Near-term peak risk above which the plan is in danger: when the best route's risk
     /// within [`VerifyParams::near_s`] stays above it after the detour net, escape
     /// manoeuvres are tried ([`crate::detour::escape_candidates`]), and routes are ranked
@@ -204,6 +211,7 @@ impl Default for PlanParams {
             fresh_detours: true,
             cylinder_margin_m: 8.0,
             hold: false,
+            hold_overdue: true,
             danger_risk: 0.25,
         }
     }
