@@ -331,14 +331,15 @@ impl predictor::RiskField for Gate {
 }
 
 #[test]
-fn a_hold_circle_is_flown_for_an_overdue_waypoint_and_only_then() {
+fn with_hold_overdue_a_hold_circle_is_flown_for_an_overdue_waypoint_and_only_then() {
     // A corridor 140 m wide east (y from -70 to 70), the aircraft at its west end on the
     // south side (y = -60) at t = 0, heading east at 20 m/s to the waypoint 2 km on: it
     // reaches the gate at 22.5 s, while it is shut, and cannot get past it before (x = 750
     // by 15 s) nor bend its route enough to arrive after 38 s. Only a wait (a hold circle,
-    // 19 s or more) gets it through, and the replan seam turns the hold on only once the
-    // waypoint has been pending longer than the delay credit (60 s). Defaults throughout
-    // (an overdue waypoint's route is also read past the 40 s horizon, at 40 s: open).
+    // 19 s or more) gets it through, and with `hold_overdue` (off by default) the replan
+    // seam turns the hold on only once the waypoint has been pending longer than the
+    // delay credit (60 s). Defaults otherwise (an overdue waypoint's route is also read
+    // past the 40 s horizon, at 40 s: open).
     let mut m = mission();
     m.fly_zones = vec![common::rect_zone([-70.0, -70.0], [2200.0, 70.0])];
     m.waypoints = common::waypoints_at_100m(&[[0.0, -60.0], [2000.0, -60.0]]);
@@ -358,9 +359,10 @@ fn a_hold_circle_is_flown_for_an_overdue_waypoint_and_only_then() {
             .expect("plan")
             .plan
     };
-    let cfg = ReplanConfig::default();
-    assert!(!cfg.plan.hold && cfg.plan.hold_overdue);
+    let mut cfg = ReplanConfig::default();
+    assert!(!cfg.plan.hold && !cfg.plan.hold_overdue);
     assert_eq!(cfg.plan.verify.delay_credit_s, 60.0);
+    cfg.plan.hold_overdue = true;
     // Within the credit (up to 60 s pending): no hold, and nothing else is clear.
     for pending in [None, Some(30.0), Some(60.0)] {
         let p = plan_with(&cfg, pending);
@@ -396,9 +398,8 @@ fn a_hold_circle_is_flown_for_an_overdue_waypoint_and_only_then() {
         // so it is 15.5 s longer than straight at least.
         assert!(t >= 2000.0 / 20.0 + 15.5, "{pending:?}: {t:.1} s");
     }
-    // The rule switched off: overdue, still no hold and nothing clear.
-    let mut off = cfg;
-    off.plan.hold_overdue = false;
+    // The rule off (the default): overdue, still no hold and nothing clear.
+    let off = ReplanConfig::default();
     let p = plan_with(&off, Some(200.0));
     assert_ne!(p.outcome, planner::PlanOutcome::Exact, "{p:?}");
 }
