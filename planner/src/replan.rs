@@ -423,9 +423,9 @@ pub fn replan(
     let overdue_s = (pending - params.verify.delay_credit_s).max(0.0);
     params.verify.delay_credit_s = (params.verify.delay_credit_s - pending).max(0.0);
     if overdue_s > 0.0 {
-        // Waited for on a verified circle rather than looped round, when asked
-        // (PlanParams::hold_overdue).
-        params.hold |= params.hold_overdue;
+        // Waited for on a verified circle rather than looped round, for a while
+        // (PlanParams::hold_overdue, hold_overdue_max_s).
+        params.hold |= params.hold_overdue && overdue_s <= params.hold_overdue_max_s;
         let v = &mut params.verify;
         v.far_risk = (v.far_risk + v.overdue_far_risk_per_s.max(0.0) * overdue_s)
             .min(v.overdue_far_risk_max.max(v.far_risk));

@@ -331,15 +331,16 @@ impl predictor::RiskField for Gate {
 }
 
 #[test]
-fn with_hold_overdue_a_hold_circle_is_flown_for_an_overdue_waypoint_and_only_then() {
+fn a_hold_circle_is_flown_for_an_overdue_waypoint_for_two_minutes_and_only_then() {
     // A corridor 140 m wide east (y from -70 to 70), the aircraft at its west end on the
     // south side (y = -60) at t = 0, heading east at 20 m/s to the waypoint 2 km on: it
     // reaches the gate at 22.5 s, while it is shut, and cannot get past it before (x = 750
     // by 15 s) nor bend its route enough to arrive after 38 s. Only a wait (a hold circle,
-    // 19 s or more) gets it through, and with `hold_overdue` (off by default) the replan
+    // 19 s or more) gets it through, and with `hold_overdue` (the default) the replan
     // seam turns the hold on only once the waypoint has been pending longer than the
-    // delay credit (60 s). Defaults otherwise (an overdue waypoint's route is also read
-    // past the 40 s horizon, at 40 s: open).
+    // delay credit (60 s), and only for the first `hold_overdue_max_s` (120 s) it is
+    // overdue. Defaults otherwise (an overdue waypoint's route is also read past the
+    // 40 s horizon, at 40 s: open).
     let mut m = mission();
     m.fly_zones = vec![common::rect_zone([-70.0, -70.0], [2200.0, 70.0])];
     m.waypoints = common::waypoints_at_100m(&[[0.0, -60.0], [2000.0, -60.0]]);
@@ -359,19 +360,15 @@ fn with_hold_overdue_a_hold_circle_is_flown_for_an_overdue_waypoint_and_only_the
             .expect("plan")
             .plan
     };
-    let mut cfg = ReplanConfig::default();
-    assert!(!cfg.plan.hold && !cfg.plan.hold_overdue);
+    let cfg = ReplanConfig::default();
+    assert!(!cfg.plan.hold && cfg.plan.hold_overdue);
     assert_eq!(cfg.plan.verify.delay_credit_s, 60.0);
-    cfg.plan.hold_overdue = true;
-    // Within the credit (up to 60 s pending): no hold, and nothing else is clear.
-    for pending in [None, Some(30.0), Some(60.0)] {
-        let p = plan_with(&cfg, pending);
-        assert_ne!(p.outcome, planner::PlanOutcome::Exact, "{pending:?}: {p:?}");
-    }
-    // Overdue: the hold is tried, and the plan is verified clear.
-    for pending in [Some(61.0), Some(200.0)] {
-        let p = plan_with(&cfg, pending);
-        assert_eq!(p.outcome, planner::PlanOutcome::Exact, "{pending:?}: {p:?}");
+    assert_eq!(cfg.plan.hold_overdue_max_s, 120.0);
+    let held = |cfg: &ReplanConfig, pending: f64| {
+        let p = plan_with(cfg, Some(pending));
+        if p.outcome != planner::PlanOutcome::Exact {
+            return false;
+        }
         // Checked independently: the route flown at 20 m/s, densely sampled, to its end.
         let pts: Vec<[f64; 2]> = std::iter::once([0.0, -60.0])
             .chain(p.items[p.current_index..].iter().map(|i| i.p_m))
@@ -380,18 +377,37 @@ fn with_hold_overdue_a_hold_circle_is_flown_for_an_overdue_waypoint_and_only_the
         for w in pts.windows(2) {
             let l = (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]);
             let r = common::sampled_max(&Gate, w[0], w[1], t, t + l / 20.0);
-            assert_eq!(
-                r, 0.0,
-                "{pending:?}: {w:?} from {t:.1} s meets the shut gate"
-            );
+            assert_eq!(r, 0.0, "{pending}: {w:?} from {t:.1} s meets the shut gate");
             t += l / 20.0;
         }
         // A wait: the route reaches the gate after it opens (38 s against 22.5 straight),
         // so it is 15.5 s longer than straight at least.
-        assert!(t >= 2000.0 / 20.0 + 15.5, "{pending:?}: {t:.1} s");
+        assert!(t >= 2000.0 / 20.0 + 15.5, "{pending}: {t:.1} s");
+        true
+    };
+    // Within the credit (up to 60 s pending): no hold, and nothing else is clear.
+    for pending in [None, Some(30.0), Some(60.0)] {
+        let p = plan_with(&cfg, pending);
+        assert_ne!(p.outcome, planner::PlanOutcome::Exact, "{pending:?}: {p:?}");
     }
-    // The rule off (the default): overdue, still no hold and nothing clear.
-    let off = ReplanConfig::default();
-    let p = plan_with(&off, Some(200.0));
-    assert_ne!(p.outcome, planner::PlanOutcome::Exact, "{p:?}");
+    // Overdue (1 s and 110 s past the credit): the hold is tried, and the plan is a wait
+    // verified clear.
+    for pending in [61.0, 170.0] {
+        assert!(held(&cfg, pending), "{pending} s pending: no hold");
+    }
+    // Past the bound (140 s overdue): the hold is off again and nothing is clear, though
+    // with the bound lifted the same request is held.
+    assert!(!held(&cfg, 200.0), "200 s pending: held past the bound");
+    let mut unbounded = cfg.clone();
+    unbounded.plan.hold_overdue_max_s = f64::INFINITY;
+    assert!(held(&unbounded, 200.0));
+    // The rule off: overdue, still no hold and nothing clear.
+    let mut off = cfg.clone();
+    off.plan.hold_overdue = false;
+    for pending in [61.0, 170.0] {
+        assert!(
+            !held(&off, pending),
+            "{pending} s pending: held with the rule off"
+        );
+    }
 }

@@ -176,14 +176,18 @@ pub struct PlanParams {
     pub hold: bool,
     /// Turn [`Self::hold`] on for a replan whose next waypoint is overdue (pending longer
     /// than [`VerifyParams::delay_credit_s`]; [`crate::replan`] reads it, [`crate::plan`]
-    /// does not): a waypoint a sphere keeps sweeping is waited for on a circle verified
-    /// clear instead of looped round for ever. Until then the hold stays as `hold` says.
-    /// Default false: over 1,200 Webster Field runs it changed no hit and rescued one run
-    /// out of time (14 of 14 waypoints instead of 12), but on the generated `spline`
-    /// family one run went from 6 of 6 waypoints to 3 of 6, circling on holds verified
-    /// clear one after the other next to a waypoint two spheres sweep (issue 10; the
-    /// README's "The hold for an overdue waypoint").
+    /// does not), for at most [`Self::hold_overdue_max_s`] of its overdue time: a waypoint
+    /// a sphere keeps sweeping is waited for on a circle verified clear instead of looped
+    /// round for ever, and a wait that keeps repeating ends. Outside that window the hold
+    /// stays as `hold` says. Default true (issue 10; the README's "The hold for an overdue
+    /// waypoint"): unbounded, it rescued one Webster Field run out of time and lost one on
+    /// the generated `spline` family, circling on holds verified clear one after the other
+    /// next to a waypoint two spheres sweep; bounded, it keeps the rescue and loses nothing.
     pub hold_overdue: bool,
+    /// How long, seconds overdue (past the delay credit), [`Self::hold_overdue`] keeps the
+    /// hold on: from just overdue up to this, not after. Default 120 (a wait of two minutes
+    /// may be flown, not one that repeats for ever; 30 rescued nothing, 60 less than 120).
+    pub hold_overdue_max_s: f64,
     /// Near-term peak risk above which the plan is in danger: when the best route's risk
     /// within [`VerifyParams::near_s`] stays above it after the detour net, escape
     /// manoeuvres are tried ([`crate::detour::escape_candidates`]), and routes are ranked
@@ -214,7 +218,8 @@ impl Default for PlanParams {
             fresh_detours: true,
             cylinder_margin_m: 8.0,
             hold: false,
-            hold_overdue: false,
+            hold_overdue: true,
+            hold_overdue_max_s: 120.0,
             danger_risk: 0.25,
         }
     }
