@@ -25,6 +25,11 @@ pub struct AltitudeView<'a> {
     /// Obstacles with a reach, as `(contribution, [lowest, highest] altitude it can
     /// touch)`, `None` for none; obstacles not listed reach every altitude.
     reach: Vec<(&'a Contribution, Option<[f64; 2]>)>,
+    /// Every unfiltered contribution of the map, in the map's own order (so a product over
+    /// them rounds as the map's does), with the bits of `reach` naming it (0: none): a read
+    /// with a mask keeps those whose bits the mask misses, without walking the map's tree
+    /// or `reach` for each obstacle at each point.
+    order: Vec<(&'a Contribution, u64)>,
 }
 
 impl RiskMap {
@@ -47,8 +52,25 @@ impl RiskMap {
                     .map(|c| (c, band))
             })
             .take(MAX_REACH)
+            .collect::<Vec<_>>();
+        let order = self
+            .contrib
+            .values()
+            .filter(|c| !c.filtered)
+            .map(|c| {
+                let bits = reach
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, (r, _))| std::ptr::eq(*r, c))
+                    .fold(0u64, |m, (i, _)| m | (1 << i));
+                (c, bits)
+            })
             .collect();
-        AltitudeView { map: self, reach }
+        AltitudeView {
+            map: self,
+            reach,
+            order,
+        }
     }
 
     /// Obstacle `c`'s particle count at cell `cell` of slice `k` (0 outside its runs).
@@ -79,13 +101,13 @@ impl RiskMap {
         bb[0] <= p_m[0] && p_m[0] <= bb[2] && bb[1] <= p_m[1] && p_m[1] <= bb[3]
     }
 
-    /// Risk of slice `k` at `p_m` from the obstacles `keep` accepts (every unfiltered
-    /// obstacle otherwise in the map).
-    fn slice_risk_kept(
+    /// Risk of slice `k` at `p_m` from the contributions `kept` (unfiltered ones, in the
+    /// map's order).
+    fn slice_risk_of<'c>(
         &self,
         p_m: [f64; 2],
         k: usize,
-        keep: impl Fn(&Contribution) -> bool,
+        kept: impl Iterator<Item = &'c Contribution>,
     ) -> f64 {
         let g = &self.geo[k];
         let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
@@ -95,8 +117,8 @@ impl RiskMap {
             .filter(|&(ix, iy)| ix < g.nx && iy < g.ny)
             .map(|(ix, iy)| (iy * g.nx + ix) as u32);
         let mut q = 1.0f64;
-        for c in self.contrib.values() {
-            if c.filtered || !keep(c) || !self.touches(c, p_m, k) {
+        for c in kept {
+            if !self.touches(c, p_m, k) {
                 continue;
             }
             if c.disc.is_some() {
@@ -121,6 +143,25 @@ impl RiskMap {
         t1_s: f64,
         keep: impl Fn(&Contribution) -> bool,
     ) -> f64 {
+        self.segment_bound_of(
+            a_m,
+            b_m,
+            t0_s,
+            t1_s,
+            self.contrib.values().filter(|c| !c.filtered && keep(c)),
+        )
+    }
+
+    /// [`RiskField::segment_risk_bound`] over the contributions `kept` (unfiltered ones, in
+    /// the map's order).
+    fn segment_bound_of<'c>(
+        &self,
+        a_m: [f64; 2],
+        b_m: [f64; 2],
+        t0_s: f64,
+        t1_s: f64,
+        kept: impl Iterator<Item = &'c Contribution>,
+    ) -> f64 {
         let (ka, kb) = (
             self.bracket(t0_s.min(t1_s)).0,
             self.bracket(t0_s.max(t1_s)).1,
@@ -133,10 +174,7 @@ impl RiskMap {
             a_m[1].max(b_m[1]),
         ];
         let mut keep_p = 1.0f64;
-        for c in self.contrib.values() {
-            if c.filtered || !keep(c) {
-                continue;
-            }
+        for c in kept {
             if let Some(d) = c.disc {
                 let r = d.r0_m + d.growth_mps * (self.slice_time(k1) - d.t_ref_s).max(0.0);
                 if dist_point_segment(d.c, a_m, b_m) <= r {
@@ -178,16 +216,19 @@ impl AltitudeView<'_> {
             .fold(0, |m, (i, _)| m | (1 << i))
     }
 
-    /// Whether a read with `mask` keeps obstacle `c`.
-    fn keeps(&self, mask: u64, c: &Contribution) -> bool {
-        !Bits(mask).any(|i| std::ptr::eq(self.reach[i].0, c))
+    /// The contributions a read with `mask` keeps, in the map's order.
+    fn kept(&self, mask: u64) -> impl Iterator<Item = &Contribution> {
+        self.order
+            .iter()
+            .filter(move |&&(_, bits)| bits & mask == 0)
+            .map(|&(c, _)| c)
     }
 
     /// Risk of slice `k` at `p_m` without the entries of `mask`.
     fn slice_risk_masked(&self, p_m: [f64; 2], k: usize, mask: u64) -> f64 {
         let m = self.map;
         if Bits(mask).any(|i| m.touches(self.reach[i].0, p_m, k)) {
-            m.slice_risk_kept(p_m, k, |c| self.keeps(mask, c))
+            m.slice_risk_of(p_m, k, self.kept(mask))
         } else {
             m.slice_risk(p_m, k)
         }
@@ -209,7 +250,7 @@ impl AltitudeView<'_> {
             return self.map.segment_risk_bound(a_m, b_m, t0_s, t1_s);
         }
         self.map
-            .segment_bound_kept(a_m, b_m, t0_s, t1_s, |c| self.keeps(mask, c))
+            .segment_bound_of(a_m, b_m, t0_s, t1_s, self.kept(mask))
     }
 }
 
