@@ -15,7 +15,7 @@
 mod common;
 
 use planner::stack::mission_stack;
-use planner::{Aircraft, Dynamic, Replan, ReplanConfig, Strategy, Termination, replan};
+use planner::{Dynamic, ReplanConfig, Termination, replan};
 use predictor::{Observation, Predictor, PredictorConfig};
 use std::time::Instant;
 
@@ -59,21 +59,7 @@ fn main() {
     let summaries: Vec<_> = p.obstacles().collect();
     let mut times = vec![];
     for seed in 0..n {
-        let r = Replan {
-            mission: &mission,
-            aircraft: Aircraft {
-                speed_mps: 20.0,
-                turn_radius_m: 40.0,
-            },
-            state,
-            stack: &stack,
-            current_index: 1,
-            strategy: Strategy::Bisection,
-            seed,
-            target_pending_s: None,
-            revisit: false,
-            captured: false,
-        };
+        let r = common::replan_request(&mission, &stack, state, seed);
         let t = Instant::now();
         let out = replan(
             &r,

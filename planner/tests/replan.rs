@@ -6,7 +6,7 @@ mod common;
 
 use planner::stack::mission_stack;
 use planner::{
-    Aircraft, AircraftState, Dynamic, Mission, Replan, ReplanConfig, Strategy, Termination, replan,
+    AircraftState, Dynamic, Mission, Replan, ReplanConfig, Strategy, Termination, replan,
 };
 use predictor::{Observation, Predictor, PredictorConfig};
 
@@ -40,27 +40,14 @@ fn config() -> ReplanConfig {
 }
 
 fn request<'a>(m: &'a Mission, stack: &'a [planner::StackItem], seed: u64) -> Replan<'a> {
-    Replan {
-        mission: m,
-        aircraft: Aircraft {
-            speed_mps: 20.0,
-            turn_radius_m: 40.0,
-        },
-        state: AircraftState {
-            p_m: [0.0, 0.0],
-            alt_m: 100.0,
-            heading_rad: std::f64::consts::FRAC_PI_2,
-            speed_mps: 20.0,
-            t_s: 10.0,
-        },
-        stack,
-        current_index: 1,
-        strategy: Strategy::Bisection,
-        seed,
-        target_pending_s: None,
-        revisit: false,
-        captured: false,
-    }
+    let state = AircraftState {
+        p_m: [0.0, 0.0],
+        alt_m: 100.0,
+        heading_rad: std::f64::consts::FRAC_PI_2,
+        speed_mps: 20.0,
+        t_s: 10.0,
+    };
+    common::replan_request(m, stack, state, seed)
 }
 
 #[test]

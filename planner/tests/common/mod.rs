@@ -171,6 +171,31 @@ pub fn cylinders_on_legs(
     out
 }
 
+/// A replan of `stack` toward its item 1 from `state`: the bisection, an aircraft at 20 m/s
+/// with a 40 m turn radius, nothing pending, captured or to revisit.
+pub fn replan_request<'a>(
+    mission: &'a planner::Mission,
+    stack: &'a [planner::StackItem],
+    state: planner::AircraftState,
+    seed: u64,
+) -> planner::Replan<'a> {
+    planner::Replan {
+        mission,
+        aircraft: planner::Aircraft {
+            speed_mps: 20.0,
+            turn_radius_m: 40.0,
+        },
+        state,
+        stack,
+        current_index: 1,
+        strategy: planner::Strategy::Bisection,
+        seed,
+        target_pending_s: None,
+        revisit: false,
+        captured: false,
+    }
+}
+
 /// The aircraft at the mission's first waypoint, at its altitude, heading north at 20 m/s at
 /// t = 0 (the benches' starting state).
 pub fn state_at_first_waypoint(mission: &planner::Mission) -> planner::AircraftState {
