@@ -182,7 +182,8 @@ pub struct PlanParams {
     /// stays as `hold` says. Default true (issue 10; the README's "The hold for an overdue
     /// waypoint"): unbounded, it rescued one Webster Field run out of time and lost one on
     /// the generated `spline` family, circling on holds verified clear one after the other
-    /// next to a waypoint two spheres sweep; bounded, it keeps the rescue and loses nothing.
+    /// next to a waypoint two spheres sweep; bounded, it keeps the rescue, loses no
+    /// waypoint and no hit is added over the 2,400 runs of the default suite.
     pub hold_overdue: bool,
     /// How long, seconds overdue (past the delay credit), [`Self::hold_overdue`] keeps the
     /// hold on: from just overdue up to this, not after. Default 120 (a wait of two minutes
