@@ -19,19 +19,18 @@ use planner::{Dynamic, ReplanConfig, Termination, replan};
 use predictor::{Observation, Predictor, PredictorConfig};
 use std::time::Instant;
 
+/// Environment variable `name` parsed, or `default` when unset or unparsable.
+fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
 fn main() {
-    let age: f64 = std::env::var("AGE")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(2.0);
-    let n: u64 = std::env::var("N")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(20);
-    let mseed: u64 = std::env::var("MSEED")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(42);
+    let age: f64 = env_or("AGE", 2.0);
+    let n: u64 = env_or("N", 20);
+    let mseed: u64 = env_or("MSEED", 42);
     let mission = common::webster();
     let movers = common::synthetic_movers(&mission, 10, mseed);
     let stack = mission_stack(&mission);

@@ -134,27 +134,9 @@ impl RiskMap {
         1.0 - q
     }
 
-    /// [`RiskField::segment_risk_bound`] over the obstacles `keep` accepts.
-    pub(super) fn segment_bound_kept(
-        &self,
-        a_m: [f64; 2],
-        b_m: [f64; 2],
-        t0_s: f64,
-        t1_s: f64,
-        keep: impl Fn(&Contribution) -> bool,
-    ) -> f64 {
-        self.segment_bound_of(
-            a_m,
-            b_m,
-            t0_s,
-            t1_s,
-            self.contrib.values().filter(|c| !c.filtered && keep(c)),
-        )
-    }
-
     /// [`RiskField::segment_risk_bound`] over the contributions `kept` (unfiltered ones, in
     /// the map's order).
-    fn segment_bound_of<'c>(
+    pub(super) fn segment_bound_of<'c>(
         &self,
         a_m: [f64; 2],
         b_m: [f64; 2],

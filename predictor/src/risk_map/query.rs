@@ -115,6 +115,7 @@ impl RiskField for RiskMap {
     /// meets the segment's bounding box in a slice the segment's times map to; 1 if the
     /// segment comes within a NoFly disc.
     fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
-        self.segment_bound_kept(a_m, b_m, t0_s, t1_s, |_| true)
+        let unfiltered = self.contrib.values().filter(|c| !c.filtered);
+        self.segment_bound_of(a_m, b_m, t0_s, t1_s, unfiltered)
     }
 }
