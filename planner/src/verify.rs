@@ -20,10 +20,11 @@
 //! is checked on the polyline (the judges put waypoints on boundary vertices, and an
 //! overshoot there is the mission's, not the plan's); the L1 path's metres outside it are
 //! a cost the ranking can add to the length ([`VerifyParams::outside_weight`], off by
-//! default), so of two routes otherwise equal the one the autopilot flies inside wins. An avoid item (one the planner
-//! inserted) that the aircraft cannot fly to from its heading (inside one of its turning
-//! circles) or cannot reach within a bounded time is `unreachable`; a mission waypoint in
-//! that position is the situation's, not the plan's (the autopilot loops round to it).
+//! default), so of two routes otherwise equal the one the autopilot flies inside wins.
+//! An avoid item (one the planner inserted) that the aircraft cannot fly to from its
+//! heading (inside one of its turning circles) or cannot reach within a bounded time is
+//! `unreachable`; a mission waypoint in that position is the situation's, not the plan's
+//! (the autopilot loops round to it).
 //!
 //! A plan is clear ([`Verification::is_clear`]) when no cylinder is entered, the fly zone is
 //! never left, every item is reachable and the risk stays under a time-graded limit: the
@@ -103,13 +104,13 @@ pub struct VerifyParams {
     /// Metres of route length the ranking adds for every metre the modelled L1 flight
     /// (the track-following autopilot, within the horizon) spends outside the fly zone
     /// ([`Verification::outside_penalty_m`]). The polyline must stay inside for a route to
-    /// be clear; the flown path may not, where a turn from the aircraft's heading or at a
+    /// be clear; the flown path need not, and leaves it where a turn from the aircraft's heading or at a
     /// corner overshoots the boundary, and of two routes otherwise equal the one flown
     /// inside wins unless it is longer by more than this times the other's excursion.
     /// The judges count every second and every excursion out of bounds. Default 0 (off:
-    /// ranked by length alone). At 10, over 400 Webster Field runs, out of bounds fell
-    /// from 26.2 to 17.2 s a run and from 3.0 to 2.0 excursions, but flights were 7 s
-    /// longer a run (1.5 standard errors) and hit two spheres against one, so it is not
+    /// ranked by length alone). At 10, over 800 Webster Field runs, out of bounds fell
+    /// from 25.2 to 17.9 s a run and from 2.85 to 2.01 excursions, but flights were 9.7 s
+    /// longer a run and hit three spheres (two 23-24 m deep) against one, so it is not
     /// the default (README, "Flown inside the fly zone", under "How a plan is chosen").
     pub outside_weight: f64,
 }
@@ -1286,8 +1287,8 @@ mod tests {
         assert!((vr.outside_penalty_m - p.outside_weight * vr.flown_outside_m).abs() < 1e-9);
         assert!(vl.better_than(&vr, 0.05, 0.5));
         assert!(!vr.better_than(&vl, 0.05, 0.5));
-        // A shorter route stops the longer one only on its ranked length: the overshoot
-        // counts while the right turn's flight is checked against the left one.
+        // With the route flown inside as the rival, the shorter route is stopped during its
+        // flight: its penalty, which only grows, already outweighs its 18.8 m less.
         let rival = Rival {
             best: &vl,
             danger_risk: 0.5,
