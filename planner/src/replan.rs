@@ -56,7 +56,7 @@ pub struct ReplanConfig {
     /// Risk-map template: cell size (default 10 m), resolution schedule, particles, buffer,
     /// seed. Bounds and time axis are set by [`ReplanConfig::map_config`].
     pub map: RiskMapConfig,
-    /// Planner parameters (horizon 60 s, samples, buffer fraction...).
+    /// Planner parameters (horizon [`crate::DEFAULT_HORIZON_S`], samples, buffer fraction...).
     pub plan: PlanParams,
 }
 

@@ -545,7 +545,9 @@ fn a_sphere_sweeping_across_a_corridor_is_waited_for() {
     // south across it at x = 600 at 10 m/s and covers both sides of it from t = 22 s to
     // t = 40 s: the aircraft, there at t = 30 s, cannot pass beside, ahead or (without a
     // long delay) behind it, and there is little room behind to turn back. A hold circle
-    // (1.5 turn radii, 19 s) lets it go by.
+    // (1.5 turn radii, 19 s) lets it go by. Planned with a 40 s horizon, which the
+    // sweep's times are set for (the default 30 s reads nothing after 30 s, so a route
+    // slowed just enough to meet the sphere after then would count as clear).
     let mut mission = common::one_leg_mission([-70.0, -70.0], [2200.0, 70.0]);
     mission.waypoints = common::waypoints_at_100m(&[[0.0, -60.0], [2000.0, -60.0]]);
     let stack = mission_stack(&mission);
@@ -558,6 +560,7 @@ fn a_sphere_sweeping_across_a_corridor_is_waited_for() {
     req.state.p_m = [0.0, -60.0];
     let params = PlanParams {
         hold: true,
+        horizon_s: 40.0,
         ..PlanParams::default()
     };
     let p = plan(&PlanRequest { params, ..req }, &sphere).unwrap();
@@ -569,6 +572,7 @@ fn a_sphere_sweeping_across_a_corridor_is_waited_for() {
     // The scenario needs the hold: without it no verified clear route exists.
     let params = PlanParams {
         hold: false,
+        horizon_s: 40.0,
         ..PlanParams::default()
     };
     let q = plan(&PlanRequest { params, ..req }, &sphere).unwrap();

@@ -118,7 +118,7 @@ fn the_map_grid_covers_the_fly_zones_and_home_plus_the_margin() {
     assert_eq!(g.min_m, [-400.0, -900.0]);
     assert_eq!(g.max_m, [2400.0, 900.0]);
     assert_eq!(g.cell_m, 10.0);
-    assert_eq!(g.horizon_s, 40.0);
+    assert_eq!(g.horizon_s, 30.0);
 }
 
 /// Risk 0.3 within 60 m of (500, 0) at every time: a sphere circling near a waypoint.
@@ -182,8 +182,9 @@ fn the_time_a_waypoint_has_been_pending_uses_up_the_delay_a_route_may_take_to_re
 #[test]
 fn an_overdue_waypoint_earns_a_looser_far_limit_but_never_a_looser_near_one() {
     // The straight stack to the waypoint at (500, 0) inside the ring (risk 0.3), met 22 s
-    // ahead at 20 m/s. The limit there, 0.1 + (far - 0.1) * (22 - 10) / (40 - 10) at the
-    // default 40 s horizon: 0.26 at the default far limit 0.5, so the route is not clear
+    // ahead at 20 m/s. The limit there, 0.1 + (far - 0.1) * (22 - 10) / (40 - 10) at a
+    // 40 s horizon (the arithmetic is the rule's; the default horizon, 30 s, would clear
+    // the ring at the limit alone): 0.26 at the default far limit 0.5, so the route is not clear
     // while the waypoint is within its delay credit (60 s) or only just past it (65 s: far
     // 0.55, limit 0.28). Pending 200 s, 140 s overdue, the budget (0.01 a second) has
     // raised the far limit to its cap of 1: 0.46 there, clear.
@@ -206,11 +207,11 @@ fn an_overdue_waypoint_earns_a_looser_far_limit_but_never_a_looser_near_one() {
             .plan
             .verification
     };
-    let cfg = ReplanConfig::default();
+    let cfg = ReplanConfig::default().horizon_s(40.0);
     let safe = cfg.plan.safe_risk;
     assert_eq!(cfg.plan.verify.overdue_far_risk_per_s, 0.01);
     assert_eq!(cfg.plan.verify.overdue_far_risk_max, 1.0);
-    assert_eq!(cfg.plan.horizon_s, 40.0);
+    assert_eq!(cfg.plan.verify.far_risk, 0.5);
     for pending in [None, Some(30.0), Some(60.0), Some(65.0)] {
         let v = plan_with(&cfg, 0.0, pending);
         assert!(!v.is_clear(safe), "pending {pending:?}: {v:?}");
@@ -225,7 +226,7 @@ fn an_overdue_waypoint_earns_a_looser_far_limit_but_never_a_looser_near_one() {
         "{overdue:?}"
     );
     // Without the budget the same wait buys nothing.
-    let mut off = ReplanConfig::default();
+    let mut off = cfg.clone();
     off.plan.verify.overdue_far_risk_per_s = 0.0;
     assert!(!plan_with(&off, 0.0, Some(200.0)).is_clear(safe));
     // Met 7 s ahead (from 300 m east), within the near window: never clear, however late.
@@ -326,8 +327,9 @@ fn a_hold_circle_is_flown_for_an_overdue_waypoint_for_two_minutes_and_only_then(
     // 19 s or more) gets it through, and with `hold_overdue` (the default) the replan
     // seam turns the hold on only once the waypoint has been pending longer than the
     // delay credit (60 s), and only for the first `hold_overdue_max_s` (120 s) it is
-    // overdue. Defaults otherwise (an overdue waypoint's route is also read past the
-    // 40 s horizon, at 40 s: open).
+    // overdue. Defaults otherwise, but for a 40 s horizon (the gate's times are set for
+    // it: an overdue waypoint's route is also read past the horizon, at 40 s: open; the
+    // default 30 s would read it shut).
     let mut m = mission();
     m.fly_zones = vec![common::rect_zone([-70.0, -70.0], [2200.0, 70.0])];
     m.waypoints = common::waypoints_at_100m(&[[0.0, -60.0], [2000.0, -60.0]]);
@@ -347,7 +349,7 @@ fn a_hold_circle_is_flown_for_an_overdue_waypoint_for_two_minutes_and_only_then(
             .expect("plan")
             .plan
     };
-    let cfg = ReplanConfig::default();
+    let cfg = ReplanConfig::default().horizon_s(40.0);
     assert!(!cfg.plan.hold && cfg.plan.hold_overdue);
     assert_eq!(cfg.plan.verify.delay_credit_s, 60.0);
     assert_eq!(cfg.plan.hold_overdue_max_s, 120.0);

@@ -307,7 +307,8 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
     );
 
     // The look-ahead slider, moved with the keyboard, changes the risk layer: the spread
-    // at the end of the map's horizon (40 s ahead) covers more ground than now.
+    // at the end of the map's horizon (30 s ahead) covers more ground than now.
+    let horizon = planner::DEFAULT_HORIZON_S;
     wait_for(
         &tab,
         "the risk layer",
@@ -320,20 +321,20 @@ fn the_operator_page_follows_a_live_flight_and_reconnects_after_a_restart() {
     tab.press_key("End").unwrap();
     wait_for(
         &tab,
-        "the layer 40 s ahead",
-        "document.getElementById('heat').dataset.t === '40'",
+        "the layer at the horizon",
+        &format!("document.getElementById('heat').dataset.t === '{horizon}'"),
         Duration::from_secs(10),
     );
     assert_eq!(
         eval(&tab, "document.getElementById('ahead-out').textContent"),
-        "t + 40 s"
+        format!("t + {horizon} s")
     );
     let area_end = num(&eval(&tab, "+document.getElementById('heat').dataset.area"));
     let sum_end = eval(&tab, "document.getElementById('heat').dataset.sum");
     assert_ne!(sum0, sum_end, "the risk layer changed");
     assert!(
         area_end > area0,
-        "the spread grows with the look-ahead: {area0} m² now, {area_end} m² at 40 s"
+        "the spread grows with the look-ahead: {area0} m² now, {area_end} m² at {horizon} s"
     );
 
     // Kill the server; restart it on the same address and database: the page reconnects

@@ -104,11 +104,12 @@ pub enum Strategy {
 }
 
 /// The default planning horizon, seconds: dynamic risk is read up to this far ahead, and
-/// the service's live risk maps cover it. 40 since 2026-11-29 (60 before): the far
-/// prediction of a 40-60 s arrival is spread so thin over a crowded field that it mostly
-/// sent the aircraft round risk it would never meet (issue 10: 800 Webster Field runs and
-/// 400 generated ones, see the README's results), and each map is a third cheaper to build and read.
-pub const DEFAULT_HORIZON_S: f64 = 40.0;
+/// the service's live risk maps cover it. 30 since 2026-11-30 (40 from 2026-11-29, 60
+/// before): the far prediction of a 30-60 s arrival is spread so thin over a crowded field
+/// that it mostly sent the aircraft round risk it would never meet (issue 10: at 40, 800
+/// Webster Field runs and 400 generated ones; at 30, 1,200 Webster Field runs and 400
+/// generated ones, see the README's results), and each map is cheaper to build and read.
+pub const DEFAULT_HORIZON_S: f64 = 30.0;
 
 /// Planning parameters with documented defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -243,7 +243,7 @@ pub struct PlanBody {
     pub current_index: Option<usize>,
     /// Aircraft performance.
     pub aircraft: Option<AircraftIn>,
-    /// Prediction horizon, seconds, default 40 (`planner::DEFAULT_HORIZON_S`; the live
+    /// Prediction horizon, seconds, default 30 (`planner::DEFAULT_HORIZON_S`; the live
     /// risk map covers it, so a plan with another horizon builds its own map).
     #[schema(exclusive_minimum = 0, maximum = 600)]
     pub horizon_s: Option<f64>,

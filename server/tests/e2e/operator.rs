@@ -59,9 +59,12 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
         "{html:.300}"
     );
     assert!(!html.contains("{{"), "every placeholder is filled");
+    let horizon = planner::DEFAULT_HORIZON_S;
     assert!(
-        html.contains(r#"<input id="ahead" type="range" min="0" max="40""#),
-        "the look-ahead slider spans the live map's 40 s horizon"
+        html.contains(&format!(
+            r#"<input id="ahead" type="range" min="0" max="{horizon}""#
+        )),
+        "the look-ahead slider spans the live map's {horizon} s horizon"
     );
     // No asset from elsewhere (the only URL is the SVG namespace's name).
     for from_elsewhere in ["src=\"http", "href=\"http", "url(http", "@import", "//cdn"] {
@@ -130,7 +133,7 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
     let opaque = buf.chunks(4).filter(|px| px[3] == 255).count();
     assert!(opaque > 0, "the obstacles' spread is drawn");
     let bad = app
-        .get(&format!("/missions/{id}/risk-layer.png?t=41"))
+        .get(&format!("/missions/{id}/risk-layer.png?t=31"))
         .await;
     let doc = problem(bad, 422).await;
     assert_eq!(doc["errors"][0]["pointer"], "/t", "{doc}");

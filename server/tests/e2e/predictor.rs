@@ -178,7 +178,7 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
 
     // Out-of-range t names the parameter.
     for path in ["risk", "risk/png"] {
-        let r = app.get(&format!("/api/v1/missions/{id}/{path}?t=61")).await;
+        let r = app.get(&format!("/api/v1/missions/{id}/{path}?t=31")).await;
         assert_eq!(
             crate::support::pointers(&crate::support::problem(r, 422).await),
             ["/t"]

@@ -2,7 +2,7 @@
 //! predictor is fed the obstacle telemetry received since the last call, and the planner
 //! replans the stack's tail through the one replanning seam ([`planner::replan`]) with the
 //! service's parameters ([`planner::ReplanConfig::default`]: 10 m cells, the multi-resolution
-//! schedule, 40 s horizon, 300 m margin) against the same live map the server keeps
+//! schedule, 30 s horizon, 300 m margin) against the same live map the server keeps
 //! ([`planner::live_map`]: anchored at the newest observation, every fresh obstacle, no
 //! threat filter). The predictor's stage is either forced (to compare stages) or automatic.
 //! As in the server, the live state (predictor and map) is brought up to date first and the
