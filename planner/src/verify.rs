@@ -104,9 +104,10 @@ pub struct VerifyParams {
     /// Metres of route length the ranking adds for every metre the modelled L1 flight
     /// (the track-following autopilot, within the horizon) spends outside the fly zone
     /// ([`Verification::outside_penalty_m`]). The polyline must stay inside for a route to
-    /// be clear; the flown path need not, and leaves it where a turn from the aircraft's heading or at a
-    /// corner overshoots the boundary, and of two routes otherwise equal the one flown
-    /// inside wins unless it is longer by more than this times the other's excursion.
+    /// be clear; the flown path need not, and leaves it where a turn from the aircraft's
+    /// heading or at a corner overshoots the boundary, and of two routes otherwise equal
+    /// the one flown inside wins unless it is longer by more than this times the other's
+    /// excursion.
     /// The judges count every second and every excursion out of bounds. Default 0 (off:
     /// ranked by length alone). At 10, over 800 Webster Field runs, out of bounds fell
     /// from 25.2 to 17.9 s a run and from 2.85 to 2.01 excursions, but flights were 9.7 s
