@@ -357,10 +357,14 @@ pub fn replan_command(
     // The service is told the autopilot's acceptance radius (`aircraft.acceptance_radius_m`).
     let mut cfg = cfg.clone();
     cfg.plan.verify.acceptance_m = view.aircraft.acceptance_radius_m;
+    let read = trace_plans().then(|| trace_field(&dynamic)).flatten();
     match planner::replan(&r, dynamic, &cfg, &planner::Termination::none()) {
         Ok(p) => {
             if trace_plans() {
                 trace_plan(view, &r, &p.plan);
+                if let Some(read) = read {
+                    trace_target(view, read, &p.plan);
+                }
             }
             Command::Replace(Stack {
                 items: p.plan.items,
@@ -447,6 +451,66 @@ fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
                 s.radius_m, s.speed_mps, p[0], p[1], p[2], q[0], q[1], s.behaviour
             );
         }
+    }
+}
+
+/// Seconds ahead the `JINK_SIM_TRACE` target lines cover, one character a second.
+const TRACE_TARGET_S: usize = 30;
+
+/// `JINK_SIM_TRACE`, under a plan line: the risk the plan read at its next mission item,
+/// a digit a second from now to [`TRACE_TARGET_S`] ahead (`0`-`9`, risk times 9 rounded;
+/// the map or field the plan was given, all altitudes), and under it the truth there (`#`
+/// where a true sphere, grown by the map's buffer, holds the item's position and altitude,
+/// `.` where none does). So a run that circles an overdue waypoint shows whether the
+/// prediction saw the waypoint's clear windows or the planner did not time its approach.
+fn trace_target(
+    view: &View<'_>,
+    (field, buffer_m): (&dyn predictor::RiskField, f64),
+    plan: &planner::Plan,
+) {
+    let Some(j) = planner::next_fixed(&plan.items, plan.current_index) else {
+        return;
+    };
+    let w = plan.items[j];
+    let (read, truth) = target_timeline(field, buffer_m, view.truth, &w, view.t_s);
+    eprintln!("   target ({:.0}, {:.0}) risk  {read}", w.p_m[0], w.p_m[1]);
+    eprintln!("   target ({:.0}, {:.0}) truth {truth}", w.p_m[0], w.p_m[1]);
+}
+
+/// The two timelines of [`trace_target`] for `item` from `t0_s`: the risk `field` reads at
+/// its position, one digit a second, and `#` / `.` for whether a sphere of `truth`, grown
+/// by `buffer_m`, holds its position and altitude then.
+fn target_timeline(
+    field: &dyn predictor::RiskField,
+    buffer_m: f64,
+    truth: &[MovingSphere],
+    item: &planner::StackItem,
+    t0_s: f64,
+) -> (String, String) {
+    let (mut read, mut held) = (String::new(), String::new());
+    for k in 0..=TRACE_TARGET_S {
+        let t = t0_s + k as f64;
+        let r = field.risk(item.p_m, t).clamp(0.0, 1.0);
+        read.push(char::from_digit((r * 9.0).round() as u32, 10).unwrap_or('9'));
+        let inside = truth.iter().any(|s| {
+            let q = s.track.at(t);
+            let d = (q[0] - item.p_m[0])
+                .hypot(q[1] - item.p_m[1])
+                .hypot(q[2] - item.alt_m);
+            d < s.radius_m + buffer_m
+        });
+        held.push(if inside { '#' } else { '.' });
+    }
+    (read, held)
+}
+
+/// What a plan given `dynamic` reads risk from, and the buffer its spheres are grown by
+/// (the map's own; the default map's for a field), for [`trace_target`].
+fn trace_field<'a>(dynamic: &planner::Dynamic<'a>) -> Option<(&'a dyn predictor::RiskField, f64)> {
+    match *dynamic {
+        planner::Dynamic::Map { map, .. } => Some((map, map.config().buffer_m)),
+        planner::Dynamic::Field(f) => Some((f, predictor::RiskMapConfig::default().buffer_m)),
+        _ => None,
     }
 }
 
@@ -659,5 +723,50 @@ mod tests {
         );
         // Not pursued at the last call (a new clock has never seen it as the target).
         assert_eq!(TargetClock::default().captured(&v1), None);
+    }
+
+    /// A field of risk 1 from 8 s to 12 s after its start, 0 elsewhere.
+    struct Window;
+    impl predictor::RiskField for Window {
+        fn risk(&self, _p: [f64; 2], t: f64) -> f64 {
+            if (8.0..=12.0).contains(&t) { 1.0 } else { 0.0 }
+        }
+    }
+
+    #[test]
+    fn the_target_timelines_show_the_read_risk_and_the_truth_second_by_second() {
+        // A sphere of 20 m flying east at 10 m/s along y = 0, at 100 m, from x = -100 at
+        // t = 0; the item is at the origin. Sampled every 0.1 s for 60 s.
+        let sphere = |alt_m: f64| MovingSphere {
+            radius_m: 20.0,
+            speed_mps: 10.0,
+            behaviour: crate::behaviour::Behaviour::Random {
+                max_turn_rate_rad_s: 0.0,
+            },
+            track: crate::behaviour::Trajectory {
+                dt_s: 0.1,
+                samples_m: (0..=600)
+                    .map(|i| [-100.0 + f64::from(i), 0.0, alt_m])
+                    .collect(),
+            },
+        };
+        let item = planner::StackItem::mission(0, [0.0, 0.0], 100.0);
+        // At its altitude, grown by 5 m, it holds the item while |x| < 25 m: t in
+        // (7.5, 12.5), whole seconds 8 to 12.
+        let (read, truth) = target_timeline(&Window, 5.0, &[sphere(100.0)], &item, 0.0);
+        assert_eq!(read.len(), TRACE_TARGET_S + 1);
+        assert_eq!(&read[..14], "00000000999990");
+        assert_eq!(&truth[..14], "........#####.");
+        assert!(truth[14..].chars().all(|c| c == '.'));
+        // 30 m above the item: out of reach grown by 5 m; grown by 15 m it holds the item
+        // while x^2 + 30^2 < 35^2, |x| < 18 m: t in (8.2, 11.8), seconds 9 to 11.
+        let (_, above) = target_timeline(&Window, 5.0, &[sphere(130.0)], &item, 0.0);
+        assert!(above.chars().all(|c| c == '.'));
+        let (_, grown) = target_timeline(&Window, 15.0, &[sphere(130.0)], &item, 0.0);
+        assert_eq!(&grown[..14], ".........###..");
+        // The timelines start at t0: two seconds later everything moves two places left.
+        let (read2, truth2) = target_timeline(&Window, 5.0, &[sphere(100.0)], &item, 2.0);
+        assert_eq!(&read2[..12], &read[2..14]);
+        assert_eq!(&truth2[..12], &truth[2..14]);
     }
 }
