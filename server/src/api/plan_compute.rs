@@ -8,7 +8,7 @@
 //! The start is the latest aircraft telemetry (else the stack item before the current
 //! index, at the current time, [`stack_start`]). Dynamic risk comes from the mission's live
 //! snapshot ([`crate::live`]): the predictor fed with every stored batch and its risk map
-//! (10 m cells, 1 s slices over the horizon); the plan never re-reads observations from the
+//! (10 m cells, half-second slices over the horizon); the plan never re-reads observations from the
 //! store. Which obstacles it considers, which it leaves out and why, and clock warnings
 //! follow the time rule of [`crate::live::plan_view`]. The least predictable considered
 //! stage sets the search's sample budget ([`predictor::Stage::variability`]). Every plan is

@@ -173,8 +173,8 @@ pub(crate) async fn with_slice<T: Send + 'static>(
 
 /// A slice of the obstacle risk map, as JSON.
 ///
-/// The map covers the fly zones plus 300 m in 10 m cells, in 1 s slices over 60 s from the
-/// anchor (the latest aircraft telemetry or obstacle observation). Each moving obstacle
+/// The map covers the fly zones plus 300 m in 10 m cells, in half-second slices over 30 s from
+/// the anchor (the latest aircraft telemetry or obstacle observation). Each moving obstacle
 /// contributes by its stage's model (a growing disc while NoFly, particles otherwise);
 /// obstacles combine as `1 - prod(1 - p)`. Stationary cylinders are hard constraints and
 /// are not in the values (the PNG draws them).

@@ -26,8 +26,8 @@ pub const SERVICE_CELL_M: f64 = 10.0;
 pub const SERVICE_MARGIN_M: f64 = 300.0;
 /// Horizon of the live map, seconds (the plans' default horizon).
 pub const LIVE_HORIZON_S: f64 = planner::DEFAULT_HORIZON_S;
-/// Slice interval of the risk maps, seconds.
-pub const SLICE_DT_S: f64 = 1.0;
+/// Slice interval of the risk maps, seconds (the planner's, so plans and live maps agree).
+pub const SLICE_DT_S: f64 = planner::replan::SLICE_DT_S;
 /// An obstacle whose newest observation is older than the map's anchor by more than this
 /// is left out of the live map (its prediction has expired), seconds.
 pub const STALE_AFTER_S: f64 = LIVE_HORIZON_S;

@@ -90,6 +90,11 @@ async fn mission_page(
             .replace(
                 "{{HORIZON_S}}",
                 &format!("{}", crate::live::snapshot::LIVE_HORIZON_S),
+            )
+            // One step a slice.
+            .replace(
+                "{{SLICE_DT_S}}",
+                &format!("{}", crate::live::snapshot::SLICE_DT_S),
             ),
     ))
 }

@@ -66,6 +66,11 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
         )),
         "the look-ahead slider spans the live map's {horizon} s horizon"
     );
+    let dt = planner::replan::SLICE_DT_S;
+    assert!(
+        html.contains(&format!(r#"max="{horizon}" step="{dt}""#)),
+        "the look-ahead slider steps one map slice ({dt} s)"
+    );
     // No asset from elsewhere (the only URL is the SVG namespace's name).
     for from_elsewhere in ["src=\"http", "href=\"http", "url(http", "@import", "//cdn"] {
         assert!(!html.contains(from_elsewhere), "{from_elsewhere}");
