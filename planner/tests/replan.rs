@@ -400,3 +400,67 @@ fn a_hold_circle_is_flown_for_an_overdue_waypoint_for_two_minutes_and_only_then(
         );
     }
 }
+
+/// A sphere of 15 m flying straight east at 18 m/s along y = 0 from x = 0, observed at
+/// 5 Hz for 60 s.
+fn straight_track() -> Predictor {
+    let mut p = Predictor::new(PredictorConfig::default());
+    for k in 0..=300 {
+        let t = 0.2 * f64::from(k);
+        p.observe(
+            "3",
+            Observation {
+                t_s: t,
+                p_m: [18.0 * t, 0.0],
+                alt_m: 100.0,
+                radius_m: 15.0,
+            },
+        );
+    }
+    p
+}
+
+#[test]
+fn the_live_map_reads_a_passing_sphere_at_most_one_slice_longer_each_side_than_it_is_there() {
+    // A read takes the worse of the two slices round its time, so the map holds a point up
+    // to one slice interval before the sphere reaches it and after it has left: the
+    // interval bounds how much of a gap (a swept waypoint's window) reads as held.
+    let m = common::one_leg_mission([-100.0, -600.0], [3100.0, 600.0]);
+    let cfg = ReplanConfig::default();
+    let live = planner::replan::live_map(&straight_track(), &m, &cfg)
+        .unwrap()
+        .expect("a map");
+    let dt = planner::replan::SLICE_DT_S;
+    assert_eq!(live.map.slices(), (30.0 / dt).round() as usize + 1);
+    // Points the centre crosses 1.3-4.7 s after the anchor (off the slice times too).
+    for ahead in [1.3, 2.0, 2.75, 3.6, 4.7] {
+        let tp = live.t0_s + ahead;
+        let pt = [18.0 * tp, 0.0];
+        // The truth: within radius plus the 5 m buffer for (15 + 5) / 18 s each side.
+        let half = 20.0 / 18.0;
+        // Read from the anchor on (earlier times read slice 0).
+        let held: Vec<f64> = (0..=200)
+            .map(|i| tp - 5.0 + 0.05 * f64::from(i))
+            .filter(|&t| t >= live.t0_s)
+            .filter(|&t| predictor::RiskField::risk(&live.map, pt, t) >= 0.06)
+            .collect();
+        let (first, last) = (held[0], held[held.len() - 1]);
+        // Slack: 9 m at 18 m/s, for the 10 m cells and the particles' spread.
+        let slack = 0.5;
+        let (enter, leave) = (first - tp, last - tp);
+        assert!(
+            enter <= -half + slack && leave >= half - slack,
+            "{ahead} s ahead: held {enter:.2}..{leave:.2} s round the crossing, there ±{half:.2}"
+        );
+        assert!(
+            enter >= -half - dt - slack && leave <= half + dt + slack,
+            "{ahead} s ahead: held {enter:.2}..{leave:.2} s, more than a {dt} s slice longer \
+             each side than ±{half:.2}"
+        );
+        assert_eq!(
+            held.len(),
+            ((last - first) / 0.05).round() as usize + 1,
+            "one held run"
+        );
+    }
+}
