@@ -431,7 +431,8 @@ fn the_live_map_reads_a_passing_sphere_at_most_one_slice_longer_each_side_than_i
         .unwrap()
         .expect("a map");
     let dt = planner::replan::SLICE_DT_S;
-    assert_eq!(live.map.slices(), (30.0 / dt).round() as usize + 1);
+    let horizon = planner::DEFAULT_HORIZON_S;
+    assert_eq!(live.map.slices(), (horizon / dt).round() as usize + 1);
     // Points the centre crosses 1.3-4.7 s after the anchor (off the slice times too).
     for ahead in [1.3, 2.0, 2.75, 3.6, 4.7] {
         let tp = live.t0_s + ahead;
