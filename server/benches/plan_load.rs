@@ -6,7 +6,8 @@
 //! fixture, 10 spheres flying circles over the field posting an interop-2018 obstacle
 //! snapshot (with its `time`) at 5 Hz, aircraft telemetry at 5 Hz, and `POST .../plan`
 //! (seeded, default options) at 1 Hz for `JINK_PLAN_SECONDS` (default 20), then at 5 Hz
-//! for as long. Then `JINK_PLAN_MISSIONS` (default 100) missions each get 30 s of 10
+//! for as long (`JINK_PLAN_RATES`, default `1,5`: the plan rates of the phases, in order;
+//! `5,1` flies the 1 Hz phase second, past the flight's first seconds of young tracks). Then `JINK_PLAN_MISSIONS` (default 100) missions each get 30 s of 10
 //! obstacles at 5 Hz (posted as fast as accepted) and one read of their obstacles, which
 //! makes them live (predictor, no risk map), and the server's resident memory (VmRSS) is
 //! reported; then each gets one plan (which builds its risk map; the server keeps at most
@@ -324,7 +325,15 @@ fn main() {
             db_url.split(':').next().unwrap_or("?"),
             if flying { "flying its plans" } else { "holding its position" }
         );
-        for (k, hz) in [1u32, 5].into_iter().enumerate() {
+        let rates: Vec<u32> = std::env::var("JINK_PLAN_RATES")
+            .unwrap_or_else(|_| "1,5".into())
+            .split(',')
+            .map(|r| match r.trim().parse::<u32>() {
+                Ok(hz @ (1 | 5)) => hz,
+                _ => panic!("JINK_PLAN_RATES: {r:?} is not 1 or 5 (plans per second)"),
+            })
+            .collect();
+        for (k, hz) in rates.into_iter().enumerate() {
             let t = t0 + f64::from(k as u32 * seconds);
             let mut ph = fly(&client, &base, &id, pid, t, seconds, hz, flier.as_mut()).await;
             println!(
