@@ -762,3 +762,132 @@ fn a_route_whose_flight_clips_a_cylinder_is_escaped_even_with_no_moving_obstacle
     assert_eq!(p.verification.cylinder_hits, 0, "{p:?}");
     assert!(p.items.iter().any(|i| i.kind == ItemKind::Avoid), "{p:?}");
 }
+
+/// A sphere met head on whose predicted spread covers every way out: risk 1 within
+/// `r_m` of its centre and 0.5 within `spread_m`, plus 0.05 on the side (north for
+/// `north_worse`, else south) of its path that this replan's reading happens to favour
+/// less. The side flips from one replan to the next, as a map's few hundredths do.
+struct Flicker {
+    sphere: Sweeper,
+    spread_m: f64,
+    north_worse: bool,
+}
+
+impl predictor::RiskField for Flicker {
+    fn risk(&self, p: [f64; 2], t: f64) -> f64 {
+        let c = self.sphere.at(t);
+        let d = dist(p, c);
+        if d < self.sphere.r_m {
+            1.0
+        } else if d < self.spread_m {
+            let north = p[1] > c[1];
+            0.5 + if north == self.north_worse { 0.05 } else { 0.0 }
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Flies `items` from `ci` for `secs` seconds from `s` (20 m/s, at most 20 / `turn_r_m`
+/// rad/s, heading straight for each item and switching within 10 m of it), an independent
+/// model of the aircraft; returns the new state and index, and calls `each(p, t)` every
+/// 20 ms.
+fn fly_for(
+    s: &AircraftState,
+    items: &[StackItem],
+    mut ci: usize,
+    turn_r_m: f64,
+    secs: f64,
+    mut each: impl FnMut(Point, f64),
+) -> (AircraftState, usize) {
+    let (dt, v) = (0.02, 20.0);
+    let (mut p, mut th) = (s.p_m, std::f64::consts::FRAC_PI_2 - s.heading_rad);
+    let mut t = s.t_s;
+    while t < s.t_s + secs - 1e-9 {
+        while ci < items.len() && dist(p, items[ci].p_m) <= 10.0 {
+            ci += 1;
+        }
+        if let Some(it) = items.get(ci) {
+            let q = it.p_m;
+            let want = (q[1] - p[1]).atan2(q[0] - p[0]);
+            let d = (want - th + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            th += d.clamp(-v / turn_r_m * dt, v / turn_r_m * dt);
+        }
+        p = [p[0] + v * dt * th.cos(), p[1] + v * dt * th.sin()];
+        t += dt;
+        each(p, t);
+    }
+    let state = AircraftState {
+        p_m: p,
+        heading_rad: std::f64::consts::FRAC_PI_2 - th,
+        t_s: t,
+        ..*s
+    };
+    (state, ci)
+}
+
+#[test]
+fn in_danger_an_escape_once_begun_is_flown_not_swapped_each_second_for_the_other_side() {
+    // A sphere of 60 m radius comes head on at 30 m/s from 500 m ahead (contact in 9 s);
+    // its predicted spread (risk 0.5 within 600 m) covers every way out, so every route is
+    // in danger and the near-term peaks of the two sides differ only by the 0.05 the map
+    // happens to give one side, which flips every replan (seeds 326 and 368 of Webster
+    // Field with mixed spheres flew straight on while the plan swapped sides each second).
+    // Closed loop, a plan every second, flown with an independent model; the clearance is
+    // measured against the sphere's own position.
+    let mission = common::open_mission(vec![], &[[-500.0, 0.0], [3000.0, 0.0]]);
+    let stack0 = mission_stack(&mission);
+    let sphere = Sweeper {
+        p0: [500.0, 0.0],
+        v: [-30.0, 0.0],
+        r_m: 60.0,
+    };
+    let fly = |params: PlanParams| -> (f64, Vec<f64>) {
+        let mut state = static_request(&mission, &stack0).state;
+        let (mut stack, mut ci) = (stack0.clone(), 1);
+        let mut gap = f64::INFINITY;
+        let mut first_y = Vec::new();
+        for k in 0..12 {
+            let field = Flicker {
+                sphere: Sweeper { ..sphere },
+                spread_m: 600.0,
+                north_worse: k % 2 == 0,
+            };
+            let req = PlanRequest {
+                stack: &stack,
+                current_index: ci,
+                state,
+                params,
+                ..static_request(&mission, &stack)
+            };
+            let p = plan(&req, &field).unwrap();
+            first_y.push(p.items[p.current_index].p_m[1]);
+            let (s2, c2) = fly_for(&state, &p.items, p.current_index, 40.0, 1.0, |q, t| {
+                gap = gap.min(dist(q, sphere.at(t)) - sphere.r_m);
+            });
+            (stack, ci, state) = (p.items, c2, s2);
+        }
+        (gap, first_y)
+    };
+    // Sides swapped: the first item's side of the sphere's path changes between plans.
+    let swaps = |ys: &[f64]| ys.windows(2).filter(|w| w[0] * w[1] < 0.0).count();
+    let (gap, ys) = fly(PlanParams::default());
+    assert!(
+        gap > 0.0,
+        "passes {gap:.1} m inside the sphere; first items' y {ys:?}"
+    );
+    assert_eq!(swaps(&ys), 0, "first items' y {ys:?}");
+    // The scenario needs the rule: without it the plan swaps sides as the map flickers
+    // (and passes the sphere closer: 3.4 m against 8.5 when this was written).
+    let off = PlanParams {
+        danger_commit_risk: 0.0,
+        ..PlanParams::default()
+    };
+    let (gap_off, ys_off) = fly(off);
+    assert!(
+        swaps(&ys_off) >= 4,
+        "{} swaps without the rule (clear by {gap_off:.1} m); first items' y {ys_off:?}",
+        swaps(&ys_off)
+    );
+}

@@ -200,6 +200,21 @@ pub struct PlanParams {
     /// Webster Field with 10 mixed spheres, 80 runs: 67 clean -> 79 clean, time outside
     /// the fly zone 28 -> 36 s a run).
     pub danger_risk: f64,
+    /// In danger, a stack in flight whose next item is an avoid point (a manoeuvre begun,
+    /// not the mission's own route) is kept over a new route unless the new route's
+    /// near-term peak risk is lower by more than this (or, near peaks within it, its near
+    /// exposure lower by more than [`PlanParams::danger_commit_exposure`]): an escape once
+    /// begun is flown, not swapped each second for the other side by a few hundredths of
+    /// risk. Applies when the stack in flight is itself in danger (near-term peak above
+    /// [`PlanParams::danger_risk`]), flies every fixed item and is no worse on cylinders
+    /// and reachability, and when the new route is in danger too (one out of danger is
+    /// always taken). 0: off. Default 0.15 (issue 10: Webster Field with mixed spheres,
+    /// seeds 326 and 368 flew straight into a sphere while each second's plan turned the
+    /// other way; the README's "In danger, an escape once begun is flown").
+    pub danger_commit_risk: f64,
+    /// See [`PlanParams::danger_commit_risk`]: the fraction of the stack's near exposure a
+    /// new route must save. Default 0.25.
+    pub danger_commit_exposure: f64,
 }
 
 impl Default for PlanParams {
@@ -223,6 +238,8 @@ impl Default for PlanParams {
             hold_overdue: true,
             hold_overdue_max_s: 120.0,
             danger_risk: 0.25,
+            danger_commit_risk: 0.15,
+            danger_commit_exposure: 0.25,
         }
     }
 }
@@ -425,6 +442,20 @@ fn captures_at_no_risk(v: &Verification, rival: &Verification, safe_risk: f64) -
         && v.missed_waypoints < rival.missed_waypoints
         && v.near_peak_risk <= safe_risk
         && v.graded_peak_risk <= rival.graded_peak_risk + 1e-9
+}
+
+/// Whether the stack in flight (`base`, whose next item is an avoid point: a manoeuvre
+/// begun) is kept over the best new route (`best`) in danger ([`PlanParams::danger_commit_risk`]): both are in danger, the stack no worse on
+/// cylinders and reachability, and `best` is not lower in near-term peak by more than the
+/// margin, nor (peaks within it) in near exposure by more than the fraction.
+fn commits_in_danger(base: &Verification, best: &Verification, p: &PlanParams) -> bool {
+    let flown = |v: &Verification| v.cylinder_hits + usize::from(v.unreachable.is_some());
+    base.near_peak_risk > p.danger_risk
+        && best.near_peak_risk > p.danger_risk
+        && base.polyline_cylinder_hits <= best.polyline_cylinder_hits
+        && flown(base) <= flown(best)
+        && best.near_peak_risk >= base.near_peak_risk - p.danger_commit_risk
+        && best.near_exposure >= base.near_exposure * (1.0 - p.danger_commit_exposure)
 }
 
 /// Where a manoeuvre from the aircraft (a hold, an escape) starts: the altitude it is
@@ -842,6 +873,15 @@ pub fn plan_until(
             best = v;
             best_tail = cand;
         }
+    }
+    if best_tail != base_tail
+        && p.danger_commit_risk > 0.0
+        && base_tail.first().is_some_and(|i| i.kind == ItemKind::Avoid)
+        && keeps_fixed(&base_tail)
+        && commits_in_danger(&v_base, &best, p)
+    {
+        best = v_base;
+        best_tail = base_tail.clone();
     }
     if best_tail != base_tail
         && p.keep_stack
