@@ -209,8 +209,10 @@ pub struct PlanParams {
     /// [`PlanParams::danger_risk`]), flies every fixed item and is no worse on cylinders
     /// and reachability, and when the new route is in danger too (one out of danger is
     /// always taken). 0: off. Default 0.15 (issue 10: Webster Field with mixed spheres,
-    /// seeds 326 and 368 flew straight into a sphere while each second's plan turned the
-    /// other way; the README's "In danger, an escape once begun is flown").
+    /// seeds 326 and 368 flew straight into a sphere while each second's plan turned
+    /// another way; with the rule 326 is clean and 368 meets its sphere 9.5 m deep against
+    /// 22.3, and over 1,600 runs sphere hits are 5 against 7; the README's "In danger, an
+    /// escape once begun is flown").
     pub danger_commit_risk: f64,
     /// See [`PlanParams::danger_commit_risk`]: the fraction of the stack's near exposure a
     /// new route must save. Default 0.25.
@@ -445,7 +447,8 @@ fn captures_at_no_risk(v: &Verification, rival: &Verification, safe_risk: f64) -
 }
 
 /// Whether the stack in flight (`base`, whose next item is an avoid point: a manoeuvre
-/// begun) is kept over the best new route (`best`) in danger ([`PlanParams::danger_commit_risk`]): both are in danger, the stack no worse on
+/// begun) is kept over the best new route (`best`) in danger
+/// ([`PlanParams::danger_commit_risk`]): both are in danger, the stack no worse on
 /// cylinders and reachability, and `best` is not lower in near-term peak by more than the
 /// margin, nor (peaks within it) in near exposure by more than the fraction.
 fn commits_in_danger(base: &Verification, best: &Verification, p: &PlanParams) -> bool {
