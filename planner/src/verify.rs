@@ -233,6 +233,12 @@ pub struct Verification {
 }
 
 impl Verification {
+    /// Violations of the flown path that the ranking puts before danger: cylinders entered
+    /// and an unreachable item.
+    pub fn flown_violations(&self) -> usize {
+        self.cylinder_hits + usize::from(self.unreachable.is_some())
+    }
+
     /// Hard violations: cylinders entered, fly-zone exits, an unreachable item.
     pub fn hard(&self) -> usize {
         self.cylinder_hits + self.zone_exits + usize::from(self.unreachable.is_some())
@@ -274,9 +280,8 @@ impl Verification {
         if self.polyline_cylinder_hits != other.polyline_cylinder_hits {
             return self.polyline_cylinder_hits < other.polyline_cylinder_hits;
         }
-        let flown = |v: &Verification| v.cylinder_hits + usize::from(v.unreachable.is_some());
-        if flown(self) != flown(other) {
-            return flown(self) < flown(other);
+        if self.flown_violations() != other.flown_violations() {
+            return self.flown_violations() < other.flown_violations();
         }
         if self.near_peak_risk.max(other.near_peak_risk) > danger_risk {
             if (self.near_peak_risk - other.near_peak_risk).abs() > 1e-9 {
@@ -358,8 +363,7 @@ impl Verification {
             Less => return false,
             Equal => {}
         }
-        let flown = |v: &Verification| v.cylinder_hits + usize::from(v.unreachable.is_some());
-        match flown(self).cmp(&flown(rival)) {
+        match self.flown_violations().cmp(&rival.flown_violations()) {
             Greater => return true,
             Less => return false,
             Equal => {}

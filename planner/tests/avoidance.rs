@@ -708,28 +708,13 @@ fn overtaken_by_a_sphere_it_cannot_avoid_the_plan_spends_the_least_time_inside()
 }
 
 /// Minimum clearance (metres, negative inside) from the cylinder at `c` of radius `r` of
-/// an independent model flight of `items`: 20 m/s, at most 20 / `turn_r_m` rad/s,
-/// heading straight for each item and switching within 10 m of it, for 60 s.
+/// an independent model flight of `items` ([`fly_for`]) for 60 s.
 fn flown_clearance(s: &AircraftState, items: &[StackItem], turn_r_m: f64, c: Point, r: f64) -> f64 {
-    let (dt, v) = (0.02, 20.0);
-    let (mut p, mut th) = (s.p_m, std::f64::consts::FRAC_PI_2 - s.heading_rad);
-    let mut best = dist(p, c) - r;
-    let mut i = 0;
-    let mut t = 0.0;
-    while i < items.len() && t < 60.0 {
-        let q = items[i].p_m;
-        if dist(p, q) <= 10.0 {
-            i += 1;
-            continue;
-        }
-        let want = (q[1] - p[1]).atan2(q[0] - p[0]);
-        let mut d = want - th;
-        d = (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
-        th += d.clamp(-v / turn_r_m * dt, v / turn_r_m * dt);
-        p = [p[0] + v * dt * th.cos(), p[1] + v * dt * th.sin()];
+    let start = AircraftState { t_s: 0.0, ..*s };
+    let mut best = dist(s.p_m, c) - r;
+    fly_for(&start, items, 0, turn_r_m, 60.0, |p, _| {
         best = best.min(dist(p, c) - r);
-        t += dt;
-    }
+    });
     best
 }
 
@@ -789,9 +774,9 @@ impl predictor::RiskField for Flicker {
 }
 
 /// Flies `items` from `ci` for `secs` seconds from `s` (20 m/s, at most 20 / `turn_r_m`
-/// rad/s, heading straight for each item and switching within 10 m of it), an independent
-/// model of the aircraft; returns the new state and index, and calls `each(p, t)` every
-/// 20 ms.
+/// rad/s, heading straight for each item and switching within 10 m of it; stops early once
+/// every item is passed), an independent model of the aircraft; returns the new state and
+/// index, and calls `each(p, t)` every 20 ms.
 fn fly_for(
     s: &AircraftState,
     items: &[StackItem],
@@ -807,13 +792,12 @@ fn fly_for(
         while ci < items.len() && dist(p, items[ci].p_m) <= 10.0 {
             ci += 1;
         }
-        if let Some(it) = items.get(ci) {
-            let q = it.p_m;
-            let want = (q[1] - p[1]).atan2(q[0] - p[0]);
-            let d = (want - th + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                - std::f64::consts::PI;
-            th += d.clamp(-v / turn_r_m * dt, v / turn_r_m * dt);
-        }
+        let Some(it) = items.get(ci) else { break };
+        let q = it.p_m;
+        let want = (q[1] - p[1]).atan2(q[0] - p[0]);
+        let d = (want - th + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        th += d.clamp(-v / turn_r_m * dt, v / turn_r_m * dt);
         p = [p[0] + v * dt * th.cos(), p[1] + v * dt * th.sin()];
         t += dt;
         each(p, t);

@@ -452,11 +452,10 @@ fn captures_at_no_risk(v: &Verification, rival: &Verification, safe_risk: f64) -
 /// cylinders and reachability, and `best` is not lower in near-term peak by more than the
 /// margin, nor (peaks within it) in near exposure by more than the fraction.
 fn commits_in_danger(base: &Verification, best: &Verification, p: &PlanParams) -> bool {
-    let flown = |v: &Verification| v.cylinder_hits + usize::from(v.unreachable.is_some());
     base.near_peak_risk > p.danger_risk
         && best.near_peak_risk > p.danger_risk
         && base.polyline_cylinder_hits <= best.polyline_cylinder_hits
-        && flown(base) <= flown(best)
+        && base.flown_violations() <= best.flown_violations()
         && best.near_peak_risk >= base.near_peak_risk - p.danger_commit_risk
         && best.near_exposure >= base.near_exposure * (1.0 - p.danger_commit_exposure)
 }
