@@ -334,6 +334,68 @@ fn an_out_and_back_obstacle_is_predicted_backward_along_its_own_track_after_turn
     }
 }
 
+/// The same out-and-back 9 s after its turn-back (seen from t = 20 s to 49 s): the whole
+/// 10 s signature has not yet flown past the tip, so only the newest 4 s
+/// ([`predictor::PeriodicConfig::mirror_window_s`]) can mirror it (issue 10, Webster Field
+/// with mixed spheres, seed 464: a sphere 3-6 s past its turn-back predicted round the turn,
+/// over the escape that would have cleared it). Over seeded trials the track is mirrored
+/// with a period of twice the 9 s, and its 95% disc covers the truth at least 88% of the
+/// time at +3, +6 and +10 s, with a smaller radius than the prediction made with the whole
+/// window only (`mirror_window_s` 10 s: no lap yet), and less than half of it from +6 s on
+/// (measured: 10.3 / 13.9 / 18.8 m against 16.1 / 41.0 / 79.7 m).
+#[test]
+fn an_out_and_back_is_predicted_backward_from_a_few_seconds_after_its_turn_back() {
+    let truth = out_and_back;
+    let trials = 40u32;
+    let whole_window = PredictorConfig {
+        periodic: Some(predictor::PeriodicConfig {
+            mirror_window_s: 10.0,
+            ..predictor::PeriodicConfig::default()
+        }),
+        ..PredictorConfig::default()
+    };
+    for h in [3.0, 6.0, 10.0] {
+        let (mut hits, mut r_with, mut r_without) = (0, 0.0, 0.0);
+        for seed in 0..trials {
+            let mut with = Predictor::new(PredictorConfig::default());
+            let mut without = Predictor::new(whole_window.clone());
+            for o in out_and_back_seen(20.0, 58, 700 + u64::from(seed)) {
+                with.observe("0", o);
+                without.observe("0", o);
+            }
+            let lap = with.model("0").unwrap().lap;
+            assert!(
+                lap.is_some_and(
+                    |l| l.kind == predictor::LapKind::Mirror && (l.period_s - 18.0).abs() < 1.0
+                ),
+                "seed {seed}: {lap:?}"
+            );
+            assert_eq!(without.model("0").unwrap().lap, None, "seed {seed}");
+            let mut rng = ChaCha8Rng::seed_from_u64(u64::from(seed));
+            let (mean, r95) = disc95(&with.sample_future("0", h, 1000, &mut rng).unwrap());
+            let t = truth(49.0 + h);
+            if (t[0] - mean[0]).hypot(t[1] - mean[1]) <= r95 {
+                hits += 1;
+            }
+            r_with += r95 / f64::from(trials);
+            let s = without.sample_future("0", h, 1000, &mut rng).unwrap();
+            r_without += disc95(&s).1 / f64::from(trials);
+        }
+        let c = f64::from(hits) / f64::from(trials);
+        eprintln!(
+            "9 s after the turn-back, +{h} s: coverage {c}, r95 {r_with:.1} m (whole window only {r_without:.1} m)"
+        );
+        assert!(c >= 0.88, "+{h} s coverage {c}");
+        // Near at hand both are tight (the sphere is still slow); further on the whole
+        // window's prediction cannot know the sphere comes back the way it went.
+        let ratio = if h < 5.0 { 1.0 } else { 0.5 };
+        assert!(
+            r_with < ratio * r_without,
+            "+{h} s: {r_with} m vs {r_without} m"
+        );
+    }
+}
+
 /// A young track leaving a turn-back (the judges' two-waypoint tour of the test above,
 /// seen from its turn-back at t = 40 s for 8 s at 2 Hz with 1 m noise per axis: slow and
 /// speeding up, 6.5 m/s and 0.75 m/s^2 at the end). Replay needs 20 s of history, so the
