@@ -88,8 +88,8 @@ pub struct PeriodicConfig {
     /// whole-window mirror or its replay, which have seen them. Default 60 (Webster Field
     /// with spline spheres, seed 204, whose waypoint 7 a 20.8 s shuttle sweeps: with no
     /// limit it never captured that waypoint, 8 of 14 in all, and with 60 s all 14; at
-    /// 30 s, mixed seed 464's sphere, tracked for 31 s at its fresh turn-back, was not
-    /// mirrored and hit the aircraft).
+    /// 30 s, mixed seed 464's sphere, tracked for longer than that at its fresh
+    /// turn-back, was not mirrored and hit the aircraft).
     #[cfg_attr(feature = "serde", serde(default = "default_fresh_mirror_max_track_s"))]
     pub fresh_mirror_max_track_s: f64,
 }
