@@ -168,6 +168,18 @@ fn disc95(s: &[[f64; 2]]) -> ([f64; 2], f64) {
     (mean, d[(0.95 * n) as usize])
 }
 
+/// Whether the 95% disc of 1000 of `p`'s samples of obstacle "0" `h` seconds ahead covers
+/// `truth`, and the disc's radius.
+fn disc_covers(p: &Predictor, h: f64, truth: [f64; 2], rng: &mut ChaCha8Rng) -> (bool, f64) {
+    let (mean, r95) = disc95(&p.sample_future("0", h, 1000, rng).unwrap());
+    ((truth[0] - mean[0]).hypot(truth[1] - mean[1]) <= r95, r95)
+}
+
+/// The radius of the 95% disc of 1000 of `p`'s samples of obstacle "0" `h` seconds ahead.
+fn radius95(p: &Predictor, h: f64, rng: &mut ChaCha8Rng) -> f64 {
+    disc95(&p.sample_future("0", h, 1000, rng).unwrap()).1
+}
+
 /// Over seeded trials fed the telemetry a ground station gets (2 Hz, 1 m Gaussian noise per
 /// axis, `track_s` of it): the fraction in which the true position `horizon_s` after the last
 /// observation falls in the automatic prediction's 95% disc, and the mean radii of that disc
@@ -194,10 +206,8 @@ fn auto_noisy(b: Behaviour, track_s: f64, horizon_s: f64, trials: u64) -> (f64, 
         );
         let truth = g.advance(horizon_s);
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let (mean, r95) = disc95(&p.sample_future("0", horizon_s, 1000, &mut rng).unwrap());
-        if (truth[0] - mean[0]).hypot(truth[1] - mean[1]) <= r95 {
-            hits += 1;
-        }
+        let (covered, r95) = disc_covers(&p, horizon_s, truth, &mut rng);
+        hits += u32::from(covered);
         r_auto += r95 / trials as f64;
         let s = p
             .sample_future_with_stage("0", Stage::Random, horizon_s, 1000, &mut rng)
@@ -309,16 +319,11 @@ fn an_out_and_back_obstacle_is_predicted_backward_along_its_own_track_after_turn
                 "seed {seed}: {lap:?}"
             );
             let mut rng = ChaCha8Rng::seed_from_u64(u64::from(seed));
-            let (mean, r95) = disc95(&with.sample_future("0", h, 1000, &mut rng).unwrap());
-            let t = truth(65.0 + h);
-            if (t[0] - mean[0]).hypot(t[1] - mean[1]) <= r95 {
-                hits += 1;
-            }
+            let (covered, r95) = disc_covers(&with, h, truth(65.0 + h), &mut rng);
+            hits += u32::from(covered);
             r_with += r95 / f64::from(trials);
-            let s = without.sample_future("0", h, 1000, &mut rng).unwrap();
-            r_without += disc95(&s).1 / f64::from(trials);
-            let s = smooth.sample_future("0", h, 1000, &mut rng).unwrap();
-            r_smooth += disc95(&s).1 / f64::from(trials);
+            r_without += radius95(&without, h, &mut rng) / f64::from(trials);
+            r_smooth += radius95(&smooth, h, &mut rng) / f64::from(trials);
         }
         let c = f64::from(hits) / f64::from(trials);
         eprintln!(
@@ -372,14 +377,10 @@ fn an_out_and_back_is_predicted_backward_from_a_few_seconds_after_its_turn_back(
             );
             assert_eq!(without.model("0").unwrap().lap, None, "seed {seed}");
             let mut rng = ChaCha8Rng::seed_from_u64(u64::from(seed));
-            let (mean, r95) = disc95(&with.sample_future("0", h, 1000, &mut rng).unwrap());
-            let t = truth(49.0 + h);
-            if (t[0] - mean[0]).hypot(t[1] - mean[1]) <= r95 {
-                hits += 1;
-            }
+            let (covered, r95) = disc_covers(&with, h, truth(49.0 + h), &mut rng);
+            hits += u32::from(covered);
             r_with += r95 / f64::from(trials);
-            let s = without.sample_future("0", h, 1000, &mut rng).unwrap();
-            r_without += disc95(&s).1 / f64::from(trials);
+            r_without += radius95(&without, h, &mut rng) / f64::from(trials);
         }
         let c = f64::from(hits) / f64::from(trials);
         eprintln!(
@@ -430,15 +431,10 @@ fn a_young_track_speeding_up_out_of_a_turn_back_is_covered() {
             assert!(without.model("0").unwrap().young.is_none());
             let t = truth(48.0 + h);
             let mut rng = ChaCha8Rng::seed_from_u64(u64::from(seed));
-            let (mean, r95) = disc95(&with.sample_future("0", h, 1000, &mut rng).unwrap());
-            if (t[0] - mean[0]).hypot(t[1] - mean[1]) <= r95 {
-                hits += 1;
-            }
+            let (covered, r95) = disc_covers(&with, h, t, &mut rng);
+            hits += u32::from(covered);
             r_with += r95 / f64::from(trials);
-            let (mean, r95) = disc95(&without.sample_future("0", h, 1000, &mut rng).unwrap());
-            if (t[0] - mean[0]).hypot(t[1] - mean[1]) <= r95 {
-                hits_without += 1;
-            }
+            hits_without += u32::from(disc_covers(&without, h, t, &mut rng).0);
         }
         let c = f64::from(hits) / f64::from(trials);
         let c_without = f64::from(hits_without) / f64::from(trials);
