@@ -369,14 +369,10 @@ pub fn find_lap(track: &Track, cfg: &PeriodicConfig) -> Option<Lap> {
     let span_sig = (n_sig - 1) as f64 * cfg.step_s;
     // The shortest mirror: the matched stretch ends where the signature starts.
     let min_mirror_s = 2.0 * span_sig;
-    // A fresh turn-back's shorter signature (`mirror_window_s`), when shorter at all.
+    // A fresh turn-back's shorter signature (`mirror_window_s`; the whole one at most), and
+    // the shortest mirror on it.
     let n_short = ((cfg.mirror_window_s / cfg.step_s).floor() as usize + 1).clamp(2, n_sig);
-    let span_short = (n_short - 1) as f64 * cfg.step_s;
-    let shortest = if n_short < n_sig {
-        2.0 * span_short
-    } else {
-        min_mirror_s
-    };
+    let shortest = 2.0 * (n_short - 1) as f64 * cfg.step_s;
     if t0 - first < (cfg.min_period_s + span_sig).min(shortest) {
         return None;
     }
