@@ -34,6 +34,7 @@
 
 pub mod aircraft;
 pub mod behaviour;
+pub mod cpu;
 pub mod geometry;
 pub mod lidar;
 pub mod mission;

@@ -7,8 +7,10 @@ use crate::suite::SuiteReport;
 /// The summary as a Markdown table (one line per family and strategy).
 pub fn markdown_table(r: &SuiteReport) -> String {
     let mut s = String::new();
-    s.push_str("| family | strategy | runs | sphere score | cylinder score | clean runs | sphere hits | cylinder hits | waypoints | path ratio mean / p50 | min clearance p50 (m) | wp added (reached / targeted) | out of zone (s) | replan p50 / p95 / max (ms) | live map p50 / p95 (ms) | mission-min per core-s |\n");
-    s.push_str("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    s.push_str("| family | strategy | runs | sphere score | cylinder score | clean runs | sphere hits | cylinder hits | waypoints | path ratio mean / p50 | min clearance p50 (m) | wp added (reached / targeted) | out of zone (s) | replan p50 / p95 / max (ms) | replan CPU p95 / max (ms) | live map p50 / p95 (ms) | mission-min per core-s |\n");
+    s.push_str(
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
     for row in &r.summary {
         let tp = if row.cpu_s > 0.0 {
             row.sim_s / 60.0 / row.cpu_s
@@ -17,7 +19,7 @@ pub fn markdown_table(r: &SuiteReport) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.3} | {:.3} | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.2} / {:.2} | {:.1} | {:.1} / {:.1} | {:.2} | {:.2} / {:.2} / {:.1} | {:.1} / {:.1} | {:.1} |",
+            "| {} | {} | {} | {:.3} | {:.3} | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.2} / {:.2} | {:.1} | {:.1} / {:.1} | {:.2} | {:.2} / {:.2} / {:.1} | {:.2} / {:.1} | {:.1} / {:.1} | {:.1} |",
             row.family.name(),
             row.strategy.name(),
             row.runs,
@@ -36,6 +38,8 @@ pub fn markdown_table(r: &SuiteReport) -> String {
             row.replan_p50_ms,
             row.replan_p95_ms,
             row.replan_max_ms,
+            row.replan_cpu_p95_ms,
+            row.replan_cpu_max_ms,
             row.live_p50_ms,
             row.live_p95_ms,
             tp,

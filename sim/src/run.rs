@@ -130,6 +130,14 @@ pub struct RunMetrics {
     pub replan_p95_ms: f64,
     /// Maximum, ms.
     pub replan_max_ms: f64,
+    /// 95th percentile of the replan time in the thread's CPU time
+    /// ([`crate::cpu::thread_cpu_ms`]), ms: the work itself, which a loaded machine does
+    /// not inflate (0 where no CPU clock can be read).
+    #[serde(default)]
+    pub replan_cpu_p95_ms: f64,
+    /// Maximum, the same way, ms.
+    #[serde(default)]
+    pub replan_cpu_max_ms: f64,
     /// 95th percentile of the live-state update before each replan (feeding the predictor,
     /// building the live map), ms: work the server does when telemetry arrives, reported
     /// apart from the replan time ([`crate::strategy::Strategy::take_live_ms`]); 0 for a
@@ -157,6 +165,10 @@ pub struct RunResult {
     /// Live-state update latencies, ms ([`RunMetrics::live_p95_ms`]).
     #[serde(skip)]
     pub live_ms: Vec<f64>,
+    /// Strategy latencies (the plan's part) in the thread's CPU time, ms
+    /// ([`RunMetrics::replan_cpu_p95_ms`]; empty without a CPU clock).
+    #[serde(skip)]
+    pub cpu_ms: Vec<f64>,
 }
 
 /// Percentile by nearest rank of an unsorted slice (0 for an empty one).
@@ -194,6 +206,7 @@ pub fn run_with_streams(
     let mut received = vec![0usize; streams.len()];
     let mut latencies_ms = Vec::new();
     let mut live_ms = Vec::new();
+    let mut cpu_ms = Vec::new();
     let mut track = Vec::new();
     let judge_every = ((1.0 / cfg.judge_rate_hz) / cfg.dt_s).round().max(1.0) as usize;
     let mut judge_tel = vec![(0.0, ap.state.p_m)];
@@ -240,10 +253,14 @@ pub fn run_with_streams(
                 truth: &scenario.spheres,
             };
             let t0 = Instant::now();
+            let cpu0 = crate::cpu::thread_cpu_ms();
             let cmd = strat.decide(&view);
             let total_ms = t0.elapsed().as_secs_f64() * 1e3;
+            let cpu_total = cpu0.zip(crate::cpu::thread_cpu_ms()).map(|(a, b)| b - a);
             let live = strat.take_live_ms();
             latencies_ms.push(total_ms - live.unwrap_or(0.0));
+            let live_cpu = strat.take_live_cpu_ms();
+            cpu_ms.extend(cpu_total.map(|c| c - live_cpu.unwrap_or(0.0)));
             live_ms.extend(live);
             match cmd {
                 Command::Keep => {}
@@ -329,6 +346,8 @@ pub fn run_with_streams(
         replan_p50_ms: percentile(&latencies_ms, 0.5),
         replan_p95_ms: percentile(&latencies_ms, 0.95),
         replan_max_ms: latencies_ms.iter().copied().fold(0.0, f64::max),
+        replan_cpu_p95_ms: percentile(&cpu_ms, 0.95),
+        replan_cpu_max_ms: cpu_ms.iter().copied().fold(0.0, f64::max),
         live_p95_ms: percentile(&live_ms, 0.95),
     };
     RunResult {
@@ -339,6 +358,7 @@ pub fn run_with_streams(
         track,
         latencies_ms,
         live_ms,
+        cpu_ms,
     }
 }
 

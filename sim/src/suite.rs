@@ -87,6 +87,13 @@ pub struct SummaryRow {
     pub replan_p95_ms: f64,
     /// Maximum, ms.
     pub replan_max_ms: f64,
+    /// 95th percentile of the strategy's CPU time over all calls (the work itself,
+    /// [`crate::cpu::thread_cpu_ms`]), ms.
+    #[serde(default)]
+    pub replan_cpu_p95_ms: f64,
+    /// Maximum, the same way, ms.
+    #[serde(default)]
+    pub replan_cpu_max_ms: f64,
     /// Median live-state update before a replan (feeding the predictor, building the live
     /// map: the server's work per telemetry batch, not per plan), ms.
     #[serde(default)]
@@ -201,6 +208,10 @@ fn summarise(
         .iter()
         .flat_map(|(_, r, _)| r.live_ms.iter().copied())
         .collect();
+    let cpu: Vec<f64> = rs
+        .iter()
+        .flat_map(|(_, r, _)| r.cpu_ms.iter().copied())
+        .collect();
     let clear: Vec<f64> = rs
         .iter()
         .map(|(_, r, _)| r.metrics.min_clearance_m)
@@ -234,6 +245,8 @@ fn summarise(
         replan_p50_ms: percentile(&lat, 0.5),
         replan_p95_ms: percentile(&lat, 0.95),
         replan_max_ms: lat.iter().copied().fold(0.0, f64::max),
+        replan_cpu_p95_ms: percentile(&cpu, 0.95),
+        replan_cpu_max_ms: cpu.iter().copied().fold(0.0, f64::max),
         live_p50_ms: percentile(&live, 0.5),
         live_p95_ms: percentile(&live, 0.95),
         sim_s: rs.iter().map(|(_, r, _)| r.metrics.mission_time_s).sum(),

@@ -38,6 +38,7 @@ pub struct Bisection {
     seed: u64,
     calls: u64,
     live_ms: Option<f64>,
+    live_cpu_ms: Option<f64>,
     clock: super::TargetClock,
 }
 
@@ -53,6 +54,7 @@ impl Bisection {
             seed,
             calls: 0,
             live_ms: None,
+            live_cpu_ms: None,
             clock: super::TargetClock::default(),
         }
     }
@@ -72,8 +74,13 @@ impl Strategy for Bisection {
         self.live_ms.take()
     }
 
+    fn take_live_cpu_ms(&mut self) -> Option<f64> {
+        self.live_cpu_ms.take()
+    }
+
     fn decide(&mut self, view: &View<'_>) -> Command {
         let started = std::time::Instant::now();
+        let cpu0 = crate::cpu::thread_cpu_ms();
         self.fed.resize(view.tracks.len(), 0);
         for (i, track) in view.tracks.iter().enumerate() {
             let id = i.to_string();
@@ -95,6 +102,7 @@ impl Strategy for Bisection {
         let live = planner::live_map(&self.predictor, view.mission, &self.config);
         let obstacles: Vec<predictor::ObstacleSummary> = self.predictor.obstacles().collect();
         self.live_ms = Some(started.elapsed().as_secs_f64() * 1e3);
+        self.live_cpu_ms = cpu0.zip(crate::cpu::thread_cpu_ms()).map(|(a, b)| b - a);
         match live {
             Ok(Some(live)) => super::replan_command(
                 view,

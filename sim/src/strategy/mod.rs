@@ -81,6 +81,11 @@ pub trait Strategy: Send {
     fn take_live_ms(&mut self) -> Option<f64> {
         None
     }
+    /// The same part of the last [`Strategy::decide`] in the thread's CPU time
+    /// ([`crate::cpu::thread_cpu_ms`]), milliseconds. `None`: no such work, or no CPU clock.
+    fn take_live_cpu_ms(&mut self) -> Option<f64> {
+        None
+    }
 }
 
 /// The predictor stage a Monte Carlo bisection run is forced to.
