@@ -53,6 +53,11 @@ pub struct VerifyParams {
     /// Dynamic risk within this many seconds of the start counts as "near" (the time the
     /// aircraft needs to turn away), seconds. Default 10.
     pub near_s: f64,
+    /// The peak risk within this many seconds of the start is reported too
+    /// ([`Verification::early_peak_risk`]): a likely collision just beyond the near window,
+    /// which the planner escapes from before it is in danger
+    /// ([`crate::PlanParams::early_danger_risk`]). Seconds. Default 15.
+    pub early_s: f64,
     /// The risk a route may meet at the end of the horizon. The limit is the plan's safe
     /// risk up to [`VerifyParams::near_s`], then grows linearly to this at the horizon:
     /// the far prediction is spread thin and is revised every replan, so it is a cost
@@ -129,6 +134,7 @@ impl Default for VerifyParams {
         Self {
             step_m: 3.0,
             near_s: 10.0,
+            early_s: 15.0,
             far_risk: 0.5,
             l1_s: 0.75 * 17.0 / std::f64::consts::PI,
             capture_m: 25.0,
@@ -187,6 +193,10 @@ pub struct Verification {
     pub peak_risk: f64,
     /// Highest risk read within [`VerifyParams::near_s`] of the start.
     pub near_peak_risk: f64,
+    /// Highest risk read within [`VerifyParams::early_s`] of the start (a window a few
+    /// seconds longer than the near one).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub early_peak_risk: f64,
     /// Sum of the risk read within [`VerifyParams::near_s`] of the start, over every
     /// point checked on the three paths (one every [`VerifyParams`] spacing): how much of
     /// the near window a route spends at risk and how deep. In danger it decides between
@@ -488,6 +498,8 @@ struct Acc<'a> {
     out: Verification,
     safe_risk: f64,
     near_end_s: f64,
+    /// End of the early window ([`VerifyParams::early_s`]).
+    early_end_s: f64,
     /// The limit grows by this per second after `near_end_s`.
     limit_slope: f64,
     hit: Vec<bool>,
@@ -511,6 +523,9 @@ impl Acc<'_> {
         if t <= self.near_end_s {
             self.out.near_peak_risk = self.out.near_peak_risk.max(r);
             self.out.near_exposure += r;
+        }
+        if t <= self.early_end_s {
+            self.out.early_peak_risk = self.out.early_peak_risk.max(r);
         }
         self.grade(r, p, t, t_limit_s.min(t));
         r
@@ -645,6 +660,7 @@ pub fn verify_route_to_beat<'e>(
         out: Verification::default(),
         safe_risk,
         near_end_s,
+        early_end_s: state.t_s + params.early_s.max(params.near_s),
         limit_slope: if far_span > 0.0 {
             (params.far_risk - safe_risk).max(0.0) / far_span
         } else {
@@ -1383,6 +1399,35 @@ mod tests {
                 0.0
             }
         }
+    }
+
+    #[test]
+    fn the_early_peak_reads_the_first_fifteen_seconds_and_no_further() {
+        // Flying north at 20 m/s, the band (480-520 m) is met 24 s ahead from y = 0:
+        // beyond the 15 s early window. From y = 240, 12 s ahead: beyond the 10 s near
+        // window, within the early one; from y = 200, 14 s ahead: within; from y = 150,
+        // 16.5 s ahead: beyond.
+        let tail = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
+        let from = |y: f64| {
+            let mut s = state(0.0);
+            s.p_m = [0.0, y];
+            check(&Band, &[], &s, &tail)
+        };
+        let far = from(0.0);
+        assert_eq!(
+            (far.near_peak_risk, far.early_peak_risk),
+            (0.0, 0.0),
+            "{far:?}"
+        );
+        assert!((far.peak_risk - 0.2).abs() < 1e-12, "{far:?}");
+        for y in [240.0, 200.0] {
+            let v = from(y);
+            assert_eq!(v.near_peak_risk, 0.0, "from {y}: {v:?}");
+            assert!((v.early_peak_risk - 0.2).abs() < 1e-12, "from {y}: {v:?}");
+        }
+        let beyond = from(150.0);
+        assert_eq!(beyond.early_peak_risk, 0.0, "{beyond:?}");
+        assert!((beyond.peak_risk - 0.2).abs() < 1e-12, "{beyond:?}");
     }
 
     #[test]

@@ -707,6 +707,91 @@ fn overtaken_by_a_sphere_it_cannot_avoid_the_plan_spends_the_least_time_inside()
     );
 }
 
+/// The first time (seconds from `t0`) at which `route`, flown at `speed`, is inside a disc
+/// of radius `r` moving as `at(t)`, checked every metre; `None` when never.
+fn first_inside(route: &[Point], speed: f64, r: f64, at: impl Fn(f64) -> Point) -> Option<f64> {
+    let mut t = 0.0;
+    for w in route.windows(2) {
+        let l = dist(w[0], w[1]);
+        let n = l.ceil().max(1.0) as usize;
+        for i in 0..=n {
+            let f = i as f64 / n as f64;
+            let ti = t + f * l / speed;
+            if dist(lerp(w[0], w[1], f), at(ti)) < r {
+                return Some(ti);
+            }
+        }
+        t += l / speed;
+    }
+    None
+}
+
+#[test]
+fn a_likely_collision_just_beyond_the_near_window_is_turned_away_from() {
+    // The aircraft flies east at 20 m/s along the middle of a corridor 300 m wide toward
+    // a waypoint 3 km on. A sphere of 600 m radius, wider than the corridor, comes at it
+    // along the leg at 10 m/s: flying on, the aircraft meets it 12 s from now, just
+    // beyond the 10 s near window, so the near window of every route is clear and no
+    // detour toward the waypoint is. Turning back now (there is room) buys time: the next
+    // plans see what the sphere does. A few seconds later no turn can. The search is cut
+    // down (no bisection, detour points ahead only) so that no route but an escape turns
+    // back: the scenario of a crowded field, where the detours that turn back meet other
+    // spheres (Webster Field, mixed spheres, seed 405).
+    let mut mission = common::one_leg_mission([-1500.0, -150.0], [3500.0, 150.0]);
+    mission.waypoints = common::waypoints_at_100m(&[[-500.0, 0.0], [3000.0, 0.0]]);
+    let stack = mission_stack(&mission);
+    let wall = Sweeper {
+        p0: [960.0, 0.0],
+        v: [-10.0, 0.0],
+        r_m: 600.0,
+    };
+    let cut = PlanParams {
+        bisection: planner::bisection::BisectionParams::default().max_depth(0),
+        detour: planner::detour::DetourParams {
+            max_bearing_deg: 60.0,
+            ..Default::default()
+        },
+        ..PlanParams::default()
+    };
+    let req = PlanRequest {
+        params: cut.clone(),
+        ..static_request(&mission, &stack)
+    };
+    let met = |p: &planner::Plan| {
+        first_inside(
+            &route(&req.state, &p.items, p.current_index),
+            20.0,
+            wall.r_m,
+            |t| wall.at(t),
+        )
+    };
+    let straight = first_inside(&route(&req.state, &stack, 1), 20.0, wall.r_m, |t| {
+        wall.at(t)
+    });
+    assert!(
+        straight.is_some_and(|t| (11.0..13.0).contains(&t)),
+        "the scenario: met at {straight:?} s flying on"
+    );
+    let p = plan(&req, &wall).unwrap();
+    assert!(p.verification.near_peak_risk <= 0.1, "{p:?}");
+    assert!(
+        met(&p).is_none_or(|t| t > 25.0),
+        "met {:?} s from now: {p:?}",
+        met(&p)
+    );
+    // Without the rule the plan flies on and meets it within the early window.
+    let params = PlanParams {
+        early_danger_risk: 2.0,
+        ..cut
+    };
+    let q = plan(&PlanRequest { params, ..req }, &wall).unwrap();
+    assert!(
+        met(&q).is_some_and(|t| t < 15.0),
+        "met {:?} s from now without the rule: {q:?}",
+        met(&q)
+    );
+}
+
 /// Minimum clearance (metres, negative inside) from the cylinder at `c` of radius `r` of
 /// an independent model flight of `items` ([`fly_for`]) for 60 s.
 fn flown_clearance(s: &AircraftState, items: &[StackItem], turn_r_m: f64, c: Point, r: f64) -> f64 {

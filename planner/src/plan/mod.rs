@@ -200,6 +200,15 @@ pub struct PlanParams {
     /// Webster Field with 10 mixed spheres, 80 runs: 67 clean -> 79 clean, time outside
     /// the fly zone 28 -> 36 s a run).
     pub danger_risk: f64,
+    /// Peak risk within [`VerifyParams::early_s`] (15 s) above which the escape manoeuvres
+    /// of [`PlanParams::danger_risk`] are tried though the near window is clear: a likely
+    /// collision just beyond the near window, that no detour clears, is turned away from
+    /// while a turn still avoids it. The escapes are ranked as any route is (out of
+    /// danger, a fly-zone exit still loses). Above 1: off. Default 0.5 (issue 10, Webster
+    /// Field with mixed spheres: seed 405 flew on toward a sphere read 0.5-0.9 13 s ahead
+    /// with its near window clear, and escapes began 5 s before the hit, too late; the
+    /// README's "A likely collision just beyond the near window").
+    pub early_danger_risk: f64,
     /// In danger, a stack in flight whose next item is an avoid point (a manoeuvre begun,
     /// not the mission's own route) is kept over a new route unless the new route's
     /// near-term peak risk is lower by more than this (or, near peaks within it, its near
@@ -240,6 +249,7 @@ impl Default for PlanParams {
             hold_overdue: true,
             hold_overdue_max_s: 120.0,
             danger_risk: 0.25,
+            early_danger_risk: 0.5,
             danger_commit_risk: 0.15,
             danger_commit_exposure: 0.25,
         }
@@ -770,7 +780,9 @@ pub fn plan_until(
                 .polygons()
                 .iter()
                 .any(|z| z.boundary_distance(s.p_m) <= escape_reach);
-        if (best.near_peak_risk > p.danger_risk || best.cylinder_hits > 0)
+        if (best.near_peak_risk > p.danger_risk
+            || best.early_peak_risk > p.early_danger_risk
+            || best.cylinder_hits > 0)
             && near_zone
             && !term.should_stop()
         {
