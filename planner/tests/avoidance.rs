@@ -754,7 +754,7 @@ fn a_likely_collision_just_beyond_the_near_window_is_turned_away_from() {
         ..PlanParams::default()
     };
     let req = PlanRequest {
-        params: cut.clone(),
+        params: cut,
         ..static_request(&mission, &stack)
     };
     let met = |p: &planner::Plan| {
@@ -778,6 +778,28 @@ fn a_likely_collision_just_beyond_the_near_window_is_turned_away_from() {
         met(&p).is_none_or(|t| t > 25.0),
         "met {:?} s from now: {p:?}",
         met(&p)
+    );
+    // Once the waypoint is overdue (its delay credit spent) the rule stands aside: an
+    // escape would put it off again.
+    let overdue = PlanParams {
+        verify: planner::VerifyParams {
+            delay_credit_s: 0.0,
+            ..cut.verify
+        },
+        ..cut
+    };
+    let o = plan(
+        &PlanRequest {
+            params: overdue,
+            ..req
+        },
+        &wall,
+    )
+    .unwrap();
+    assert!(
+        met(&o).is_some_and(|t| t < 15.0),
+        "met {:?} s from now with the waypoint overdue: {o:?}",
+        met(&o)
     );
     // Without the rule the plan flies on and meets it within the early window.
     let params = PlanParams {
