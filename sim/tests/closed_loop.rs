@@ -7,7 +7,10 @@ use sim::strategy::StrategyKind;
 fn strip_latency(mut r: sim::run::RunResult) -> sim::run::RunResult {
     r.latencies_ms.clear();
     r.live_ms.clear();
+    r.cpu_ms.clear();
     r.metrics.live_p95_ms = 0.0;
+    r.metrics.replan_cpu_p95_ms = 0.0;
+    r.metrics.replan_cpu_max_ms = 0.0;
     r.metrics.replan_p50_ms = 0.0;
     r.metrics.replan_p95_ms = 0.0;
     r.metrics.replan_max_ms = 0.0;
