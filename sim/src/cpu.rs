@@ -18,6 +18,12 @@ pub fn thread_cpu_ms() -> Option<f64> {
     }
 }
 
+/// CPU time the calling thread has used since `start` (a reading of [`thread_cpu_ms`]),
+/// milliseconds; `None` where the clock cannot be read.
+pub fn since(start: Option<f64>) -> Option<f64> {
+    start.zip(thread_cpu_ms()).map(|(a, b)| b - a)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -38,9 +44,10 @@ mod tests {
         while w.elapsed().as_millis() < 30 {
             x = std::hint::black_box(x.wrapping_mul(31).wrapping_add(7));
         }
-        let spun = thread_cpu_ms().unwrap() - t1;
+        let spun = since(Some(t1)).unwrap();
         assert!(slept < 20.0, "a 50 ms sleep counted {slept:.1} ms of CPU");
         assert!(spun > 1.0, "30 ms of spinning counted {spun:.2} ms of CPU");
         assert!(spun <= 30.0 + 5.0, "more CPU ({spun:.1} ms) than wall time");
+        assert_eq!(since(None), None, "no start reading, no interval");
     }
 }

@@ -256,7 +256,7 @@ pub fn run_with_streams(
             let cpu0 = crate::cpu::thread_cpu_ms();
             let cmd = strat.decide(&view);
             let total_ms = t0.elapsed().as_secs_f64() * 1e3;
-            let cpu_total = cpu0.zip(crate::cpu::thread_cpu_ms()).map(|(a, b)| b - a);
+            let cpu_total = crate::cpu::since(cpu0);
             let live = strat.take_live_ms();
             latencies_ms.push(total_ms - live.unwrap_or(0.0));
             let live_cpu = strat.take_live_cpu_ms();

@@ -102,7 +102,7 @@ impl Strategy for Bisection {
         let live = planner::live_map(&self.predictor, view.mission, &self.config);
         let obstacles: Vec<predictor::ObstacleSummary> = self.predictor.obstacles().collect();
         self.live_ms = Some(started.elapsed().as_secs_f64() * 1e3);
-        self.live_cpu_ms = cpu0.zip(crate::cpu::thread_cpu_ms()).map(|(a, b)| b - a);
+        self.live_cpu_ms = crate::cpu::since(cpu0);
         match live {
             Ok(Some(live)) => super::replan_command(
                 view,
