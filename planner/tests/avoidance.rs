@@ -128,6 +128,59 @@ fn a_sphere_above_the_aircrafts_altitude_band_is_not_avoided() {
 }
 
 #[test]
+fn with_young_discs_limited_to_the_near_window_spheres_just_seen_far_off_are_not_flown_round() {
+    // The first plan of a flight: three spheres seen once (too young to characterize,
+    // NoFly), 450-500 m off the 2 km leg. Their discs, growing at 25.7 m/s, reach the leg
+    // 16-19 s from now, beyond the near window. With the discs counted within the near
+    // window only (`RiskMapConfig::nofly_horizon_s`, off by default) the route is not bent
+    // round them: the next observations (a second or two away) will say where they go.
+    let m = leg_mission();
+    let stack = mission_stack(&m);
+    let seen_once = |p: &mut Predictor, id: &str, at: Point| {
+        p.observe(
+            id,
+            Observation {
+                t_s: 10.0,
+                p_m: at,
+                alt_m: 100.0,
+                radius_m: 20.0,
+            },
+        );
+    };
+    let mut p = Predictor::new(PredictorConfig::default());
+    seen_once(&mut p, "a", [600.0, 450.0]);
+    seen_once(&mut p, "b", [1100.0, -480.0]);
+    seen_once(&mut p, "c", [250.0, -500.0]);
+    assert!(p.obstacles().all(|o| o.stage == predictor::Stage::NoFly));
+    let r = request(&m, &stack);
+    let mut cfg = config();
+    cfg.map.nofly_horizon_s = Some(10.0);
+    let a = replan(&r, Dynamic::Predictor(&p), &cfg, &Termination::none()).unwrap();
+    assert_eq!(a.plan.outcome, PlanOutcome::Exact, "{:?}", a.plan);
+    assert_eq!(a.plan.items, stack, "{:?}", a.plan.items);
+    // With each disc counted over the whole horizon (the default) the route is not
+    // clear: flown straight, it is inside disc "a" 20 s from now (540 m of radius reaches
+    // the leg from x = 320 to 880 at 20 m/s).
+    let whole = config();
+    let b = replan(&r, Dynamic::Predictor(&p), &whole, &Termination::none()).unwrap();
+    assert!(
+        b.plan.outcome != PlanOutcome::Exact || b.plan.items != stack,
+        "{:?}",
+        b.plan
+    );
+    // One seen once close to the leg is still a wall within the near window: flown on,
+    // the aircraft is inside its disc within 10 s, so the route is not kept.
+    let mut q = p.clone();
+    seen_once(&mut q, "d", [260.0, 140.0]);
+    let c = replan(&r, Dynamic::Predictor(&q), &cfg, &Termination::none()).unwrap();
+    assert!(
+        c.plan.outcome != PlanOutcome::Exact || c.plan.items != stack,
+        "{:?}",
+        c.plan
+    );
+}
+
+#[test]
 fn a_sphere_that_only_a_later_legs_altitudes_reach_is_passed_under_on_the_leg_below_it() {
     // Waypoint 1 at 100 m, then a climb to waypoint 2 at 200 m. Two spheres of radius 20 m
     // at 200 m cross the route northward at 5 m/s: "low" crosses the first leg (x = 300)

@@ -171,6 +171,55 @@ fn a_new_obstacle_is_an_analytic_no_fly_disc_growing_at_the_assumed_speed() {
 }
 
 #[test]
+fn a_no_fly_disc_limited_to_the_near_window_counts_there_only() {
+    let mut p = Predictor::new(PredictorConfig::default());
+    p.observe("n", obs(0.0, [0.0, 0.0], 10.0));
+    // Radius 10 + buffer 5 + 25.725 m/s * t: 272.25 m at t = 10, 529.5 m at t = 20.
+    let map = p
+        .build_risk_map(&cfg().nofly_horizon_s(Some(10.0)), &[], 0.0)
+        .unwrap();
+    assert_eq!(map.risk([0.0, 270.0], 10.0), 1.0);
+    // Between slices 10 and 11 the worse of the two answers: slice 10's disc.
+    assert_eq!(map.risk([0.0, 270.0], 10.5), 1.0);
+    // Beyond the window nothing, though the disc would cover it.
+    assert_eq!(map.risk([0.0, 100.0], 11.0), 0.0);
+    assert_eq!(map.risk([0.0, 0.0], 20.0), 0.0);
+    // The segment bound agrees: nothing for a segment flown after the window, the disc
+    // as it is at the window's end for one flown across it.
+    assert_eq!(
+        map.segment_risk_bound([-300.0, 0.0], [300.0, 0.0], 12.0, 14.0),
+        0.0
+    );
+    assert_eq!(
+        map.segment_risk_bound([-300.0, 250.0], [300.0, 250.0], 9.0, 12.0),
+        1.0
+    );
+    assert_eq!(
+        map.segment_risk_bound([-300.0, 290.0], [300.0, 290.0], 9.0, 12.0),
+        0.0
+    );
+    // Rendered slices show the same.
+    assert!(map.slice(10.0).data.contains(&1.0));
+    assert!(!map.slice(11.0).data.contains(&1.0));
+    // Without the limit (the default) the disc grows over the whole horizon.
+    let whole = p.build_risk_map(&cfg(), &[], 0.0).unwrap();
+    assert_eq!(whole.risk([0.0, 0.0], 20.0), 1.0);
+    assert_eq!(whole.risk([0.0, 525.0], 20.0), 1.0);
+    assert_eq!(
+        whole.segment_risk_bound([-300.0, 0.0], [300.0, 0.0], 12.0, 14.0),
+        1.0
+    );
+    // A limit that is not a non-negative number is refused, naming the field.
+    let bad = p.build_risk_map(&cfg().nofly_horizon_s(Some(f64::NAN)), &[], 0.0);
+    assert!(
+        bad.as_ref()
+            .is_err_and(|e| e.to_string().contains("nofly_horizon_s")),
+        "{:?}",
+        bad.map(|_| ())
+    );
+}
+
+#[test]
 fn the_constant_velocity_baseline_is_a_disc_at_the_extrapolated_position() {
     let mut p = Predictor::new(PredictorConfig::default());
     observe_for(&mut p, "cv", 2, |t| [0.0, 10.0 * t]);

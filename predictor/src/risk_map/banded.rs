@@ -93,7 +93,11 @@ impl RiskMap {
     /// or its NoFly disc).
     fn touches(&self, c: &Contribution, p_m: [f64; 2], k: usize) -> bool {
         if let Some(d) = c.disc {
-            let r = d.r0_m + d.growth_mps * (self.slice_time(k) - d.t_ref_s).max(0.0);
+            let tk = self.slice_time(k);
+            if tk > self.disc_until_s() {
+                return false;
+            }
+            let r = d.r0_m + d.growth_mps * (tk - d.t_ref_s).max(0.0);
             let (dx, dy) = (p_m[0] - d.c[0], p_m[1] - d.c[1]);
             return dx * dx + dy * dy <= r * r;
         }
@@ -158,7 +162,12 @@ impl RiskMap {
         let mut keep_p = 1.0f64;
         for c in kept {
             if let Some(d) = c.disc {
-                let r = d.r0_m + d.growth_mps * (self.slice_time(k1) - d.t_ref_s).max(0.0);
+                let until = self.disc_until_s();
+                if self.slice_time(k0) > until {
+                    continue;
+                }
+                let t = self.slice_time(k1).min(until);
+                let r = d.r0_m + d.growth_mps * (t - d.t_ref_s).max(0.0);
                 if dist_point_segment(d.c, a_m, b_m) <= r {
                     return 1.0;
                 }

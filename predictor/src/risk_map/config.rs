@@ -31,6 +31,16 @@ pub struct RiskMapConfig {
     pub particles: usize,
     /// Seed of the particles. Default 0.
     pub seed: u64,
+    /// How far after slice 0 a NoFly obstacle's disc counts, seconds; `None`: over the
+    /// whole horizon. Default `None` (measured and not kept as the default; README,
+    /// "Young tracks' discs within the near window only"). A NoFly track is one too young
+    /// to characterize (at 2 Hz it leaves the stage about 2-3 s after it is first seen);
+    /// its disc grows at the NoFly speed (25.7 m/s by default) and within 30 s covers most
+    /// of a competition field, so the first plans of a flight send the route round it.
+    /// `Some(10.0)` (the planner's near window, `planner::VerifyParams::near_s`) keeps the
+    /// disc a wall within the window and counts nothing beyond it.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub nofly_horizon_s: Option<f64>,
 }
 
 impl Default for RiskMapConfig {
@@ -47,6 +57,7 @@ impl Default for RiskMapConfig {
             buffer_m: 5.0,
             particles: 256,
             seed: 0,
+            nofly_horizon_s: None,
         }
     }
 }
@@ -96,6 +107,11 @@ impl RiskMapConfig {
     /// Sets the seed.
     pub fn seed(mut self, seed: u64) -> Self {
         self.seed = seed;
+        self
+    }
+    /// Sets how far after slice 0 a NoFly disc counts (`None`: the whole horizon).
+    pub fn nofly_horizon_s(mut self, nofly_horizon_s: Option<f64>) -> Self {
+        self.nofly_horizon_s = nofly_horizon_s;
         self
     }
 }

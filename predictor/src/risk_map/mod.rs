@@ -9,7 +9,8 @@
 //! precomputed disc stencil of radius `radius + buffer` (a cell counts when its centre is
 //! within that distance of the particle's cell centre); each particle carries `1/N` of the
 //! mass. A NoFly obstacle is an analytic disc growing at the NoFly speed, evaluated at query
-//! time instead of being gridded. Obstacles combine as `1 - prod(1 - p_i)`.
+//! time instead of being gridded (in the slices within [`RiskMapConfig::nofly_horizon_s`]
+//! of slice 0 only, when that is set). Obstacles combine as `1 - prod(1 - p_i)`.
 //!
 //! Multi-resolution in time: uncertainty grows with the horizon, so late slices do not need
 //! fine cells. Slices at most `fine_horizon_s` (default 15 s) after slice 0 use `cell_m`
@@ -304,6 +305,12 @@ impl RiskMap {
                 "fine_horizon_s, coarse_horizon_s",
             ));
         }
+        if cfg
+            .nofly_horizon_s
+            .is_some_and(|h| !(h.is_finite() && h >= 0.0))
+        {
+            return Err(RiskMapError::NotPositive("nofly_horizon_s"));
+        }
         if !(1..=64).contains(&cfg.coarse_factor) {
             return Err(RiskMapError::NotPositive("coarse_factor (1 ..= 64)"));
         }
@@ -429,6 +436,15 @@ impl RiskMap {
 
     fn slice_time(&self, k: usize) -> f64 {
         self.t0_s + k as f64 * self.cfg.dt_s
+    }
+
+    /// The last time at which NoFly discs count ([`RiskMapConfig::nofly_horizon_s`] after
+    /// slice 0; infinite without that limit).
+    #[inline]
+    fn disc_until_s(&self) -> f64 {
+        self.cfg
+            .nofly_horizon_s
+            .map_or(f64::INFINITY, |h| self.t0_s + h + 1e-9)
     }
 
     /// Mass of obstacle `id` in slice `k`: the sum of its probabilities times the cell

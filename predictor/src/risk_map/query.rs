@@ -9,6 +9,9 @@ impl RiskMap {
     #[inline]
     fn disc_risk(&self, p_m: [f64; 2], k: usize) -> f64 {
         let tk = self.slice_time(k);
+        if tk > self.disc_until_s() {
+            return 0.0;
+        }
         for d in &self.discs {
             let r = d.r0_m + d.growth_mps * (tk - d.t_ref_s).max(0.0);
             let (dx, dy) = (p_m[0] - d.c[0], p_m[1] - d.c[1]);
@@ -113,7 +116,8 @@ impl RiskField for RiskMap {
 
     /// Conservative: `1 - prod(1 - peak_i)` over every obstacle whose slice bounding box
     /// meets the segment's bounding box in a slice the segment's times map to; 1 if the
-    /// segment comes within a NoFly disc.
+    /// segment comes within a NoFly disc (as it is at the later of the segment's slices,
+    /// or at the end of [`crate::RiskMapConfig::nofly_horizon_s`]).
     fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
         let unfiltered = self.contrib.values().filter(|c| !c.filtered);
         self.segment_bound_of(a_m, b_m, t0_s, t1_s, unfiltered)
