@@ -86,6 +86,17 @@ fn sampled_peak(
     items: &[planner::StackItem],
     ci: usize,
 ) -> f64 {
+    sampled_peak_within(field, st, items, ci, planner::DEFAULT_HORIZON_S)
+}
+
+/// [`sampled_peak`] over the first `within_s` seconds of the route.
+fn sampled_peak_within(
+    field: &dyn predictor::RiskField,
+    st: &AircraftState,
+    items: &[planner::StackItem],
+    ci: usize,
+    within_s: f64,
+) -> f64 {
     let r = route(st, items, ci);
     let (mut t, mut peak) = (st.t_s, 0.0f64);
     for w in r.windows(2) {
@@ -94,7 +105,7 @@ fn sampled_peak(
         for i in 0..=n {
             let f = i as f64 / n as f64;
             let ti = t + f * l / 20.0;
-            if ti <= st.t_s + planner::DEFAULT_HORIZON_S {
+            if ti <= st.t_s + within_s {
                 peak = peak.max(field.risk(planner::geometry::lerp(w[0].0, w[1].0, f), ti));
             }
         }
@@ -663,22 +674,7 @@ fn a_stack_unclear_only_just_and_only_far_ahead_is_kept_over_a_much_longer_clear
     // Checked independently of the planner: the risk read along the route as flown at
     // 20 m/s, sampled every metre, over the first 10 s (near) and the whole horizon.
     let near_peak = |field: &FarBand, items: &[planner::StackItem]| {
-        let r = route(&state, items, 0);
-        let (mut t, mut peak) = (0.0, 0.0f64);
-        for w in r.windows(2) {
-            let l = dist(w[0].0, w[1].0);
-            let n = l.ceil().max(1.0) as usize;
-            for i in 0..=n {
-                let f = i as f64 / n as f64;
-                let ti = t + f * l / 20.0;
-                if ti <= 10.0 {
-                    let p = planner::geometry::lerp(w[0].0, w[1].0, f);
-                    peak = peak.max(predictor::RiskField::risk(field, p, ti));
-                }
-            }
-            t += l / 20.0;
-        }
-        peak
+        sampled_peak_within(field, &state, items, 0, 10.0)
     };
     let is_stack = |items: &[planner::StackItem]| items == stack.as_slice();
 
