@@ -649,8 +649,9 @@ impl predictor::RiskField for FarBand {
 fn a_stack_unclear_only_just_and_only_far_ahead_is_kept_over_a_much_longer_clear_route() {
     // Heading north to W0 1500 m ahead; a band 500 m wide across the leg 380-440 m ahead
     // (reached 19-22 s out at 20 m/s), predicted from 12 s on; the planner's way round its
-    // end is some hundreds of metres longer. The graded limit there is 0.28-0.34, so a risk of 0.4 is unclear only
-    // just (graded peak 0.14, within twice the safe 0.1) and 0.7 is not (0.25).
+    // end is some hundreds of metres longer. The graded limit there is 0.28-0.34, so a
+    // risk of 0.4 is unclear only just (graded peak 0.14, within twice the safe 0.1) and
+    // 0.7 is not (0.25).
     let m = common::open_mission(vec![], &[[0.0, 1500.0]]);
     let stack = mission_stack(&m);
     let state = AircraftState {
