@@ -87,9 +87,63 @@ impl Stack {
     pub fn remaining(&self) -> &[StackItem] {
         &self.items[self.current.min(self.items.len())..]
     }
+
+    /// Horizontal length of the route from `from_m` through the remaining items to the next
+    /// mission waypoint (included), metres, with that waypoint's mission index; `None` when
+    /// no mission waypoint remains.
+    pub fn route_to_next_waypoint_m(&self, from_m: P2) -> Option<(usize, f64)> {
+        let mut at = from_m;
+        let mut len = 0.0;
+        for it in self.remaining() {
+            len += dist(at, it.p_m);
+            at = it.p_m;
+            if let Some(i) = it.mission_index {
+                return Some((i, len));
+            }
+        }
+        None
+    }
 }
 
 /// A 3-D point of a stack item: `[east_m, north_m, alt_msl_m]`.
 pub fn item_point(it: &StackItem) -> [f64; 3] {
     [it.p_m[0], it.p_m[1], it.alt_m]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_route_to_the_next_waypoint_runs_through_the_avoid_items_before_it() {
+        let stack = Stack {
+            items: vec![
+                StackItem::mission(0, [0.0, 0.0], 100.0),
+                StackItem {
+                    p_m: [30.0, 40.0],
+                    alt_m: 100.0,
+                    kind: ItemKind::Avoid,
+                    mission_index: None,
+                },
+                StackItem::mission(1, [30.0, 100.0], 120.0),
+                StackItem::mission(2, [500.0, 100.0], 120.0),
+            ],
+            current: 1,
+        };
+        // from (0, 0): 50 m to the avoid item, 60 m on to waypoint 1; waypoint 2 not counted
+        let (i, len) = stack.route_to_next_waypoint_m([0.0, 0.0]).unwrap();
+        assert_eq!(i, 1);
+        assert!((len - 110.0).abs() < 1e-9, "{len}");
+        let past = Stack {
+            current: 3,
+            ..stack.clone()
+        };
+        let (i, len) = past.route_to_next_waypoint_m([500.0, 0.0]).unwrap();
+        assert_eq!((i, len), (2, 100.0));
+        let done = Stack {
+            current: 4,
+            ..stack
+        };
+        assert_eq!(done.route_to_next_waypoint_m([0.0, 0.0]), None);
+    }
 }

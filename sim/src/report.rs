@@ -7,9 +7,9 @@ use crate::suite::SuiteReport;
 /// The summary as a Markdown table (one line per family and strategy).
 pub fn markdown_table(r: &SuiteReport) -> String {
     let mut s = String::new();
-    s.push_str("| family | strategy | runs | sphere score | cylinder score | clean runs | sphere hits | cylinder hits | waypoints | path ratio mean / p50 | min clearance p50 (m) | wp added (reached / targeted) | out of zone (s) | replan p50 / p95 / max (ms) | replan CPU p95 / max (ms) | live map p50 / p95 (ms) | mission-min per core-s |\n");
+    s.push_str("| family | strategy | runs | sphere score | cylinder score | clean runs | sphere hits | cylinder hits | waypoints | path ratio mean / p50 | min clearance p50 (m) | wp added (reached / targeted) | route added / removed by replans (m a run) | out of zone (s) | replan p50 / p95 / max (ms) | replan CPU p95 / max (ms) | live map p50 / p95 (ms) | mission-min per core-s |\n");
     s.push_str(
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for row in &r.summary {
         let tp = if row.cpu_s > 0.0 {
@@ -19,7 +19,7 @@ pub fn markdown_table(r: &SuiteReport) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.3} | {:.3} | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.2} / {:.2} | {:.1} | {:.1} / {:.1} | {:.2} | {:.2} / {:.2} / {:.1} | {:.2} / {:.1} | {:.1} / {:.1} | {:.1} |",
+            "| {} | {} | {} | {:.3} | {:.3} | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.2} / {:.2} | {:.1} | {:.1} / {:.1} | {:.0} / {:.0} | {:.2} | {:.2} / {:.2} / {:.1} | {:.2} / {:.1} | {:.1} / {:.1} | {:.1} |",
             row.family.name(),
             row.strategy.name(),
             row.runs,
@@ -34,6 +34,8 @@ pub fn markdown_table(r: &SuiteReport) -> String {
             row.min_clearance_p50_m,
             row.waypoints_added,
             row.avoid_targets,
+            row.route_added_m,
+            row.route_removed_m,
             row.boundary_violation_s,
             row.replan_p50_ms,
             row.replan_p95_ms,

@@ -118,6 +118,16 @@ pub struct RunMetrics {
     /// Distinct avoid waypoints the aircraft flew toward (a replanning strategy that moves
     /// its avoid point every period counts each new one).
     pub avoid_targets: usize,
+    /// Route added by replans, metres: summed over the replans that changed the stack, how
+    /// much longer the new stack's route to the next mission waypoint is than the route of
+    /// the stack it replaced, both measured from the aircraft's position at that moment
+    /// (only when both lead to the same waypoint). A planner that keeps changing its mind
+    /// about the way round piles this up; one that plans once and flies it adds nothing.
+    #[serde(default)]
+    pub route_added_m: f64,
+    /// Route removed by replans, metres: the same sum for the replans that shortened it.
+    #[serde(default)]
+    pub route_removed_m: f64,
     /// Seconds outside the fly zone or its altitude band.
     pub boundary_violation_s: f64,
     /// Separate excursions out of the fly zone.
@@ -213,6 +223,7 @@ pub fn run_with_streams(
     let mut path_len = 0.0;
     let mut added = 0;
     let mut avoid_targets = 0;
+    let (mut route_added, mut route_removed) = (0.0, 0.0);
     let mut last_target = stack.target().map(|t| t.p_m);
     let mut step = 0usize;
     let mut inside = vec![false; scenario.spheres.len()];
@@ -265,7 +276,16 @@ pub fn run_with_streams(
             match cmd {
                 Command::Keep => {}
                 Command::Replace(s) => {
+                    let here = xy(ap.state.p_m);
+                    let before = stack.route_to_next_waypoint_m(here);
                     ap.replace_stack(&mut stack, s);
+                    if let (Some((wb, lb)), Some((wa, la))) =
+                        (before, stack.route_to_next_waypoint_m(here))
+                        && wb == wa
+                    {
+                        route_added += (la - lb).max(0.0);
+                        route_removed += (lb - la).max(0.0);
+                    }
                     if let Some(t) = stack.target()
                         && t.kind == ItemKind::Avoid
                         && last_target != Some(t.p_m)
@@ -340,6 +360,8 @@ pub fn run_with_streams(
         min_clearance_m: jr.min_clearance_m,
         waypoints_added: added,
         avoid_targets,
+        route_added_m: route_added,
+        route_removed_m: route_removed,
         boundary_violation_s: jr.boundary_violation_s,
         boundary_excursions: jr.boundary_excursions,
         replans: latencies_ms.len(),

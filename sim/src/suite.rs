@@ -79,6 +79,12 @@ pub struct SummaryRow {
     pub waypoints_added: f64,
     /// Mean distinct avoid waypoints flown toward.
     pub avoid_targets: f64,
+    /// Mean route added by replans a run, metres ([`crate::run::RunMetrics::route_added_m`]).
+    #[serde(default)]
+    pub route_added_m: f64,
+    /// Mean route removed by replans a run, metres.
+    #[serde(default)]
+    pub route_removed_m: f64,
     /// Mean seconds outside the fly zone.
     pub boundary_violation_s: f64,
     /// Median strategy latency over all calls, ms.
@@ -241,6 +247,8 @@ fn summarise(
         min_clearance_p50_m: percentile(&clear, 0.5),
         waypoints_added: mean(&|r| r.metrics.waypoints_added as f64),
         avoid_targets: mean(&|r| r.metrics.avoid_targets as f64),
+        route_added_m: mean(&|r| r.metrics.route_added_m),
+        route_removed_m: mean(&|r| r.metrics.route_removed_m),
         boundary_violation_s: mean(&|r| r.metrics.boundary_violation_s),
         replan_p50_ms: percentile(&lat, 0.5),
         replan_p95_ms: percentile(&lat, 0.95),

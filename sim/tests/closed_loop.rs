@@ -87,6 +87,30 @@ fn the_tangent_graph_hits_fewer_cylinders_than_flying_straight() {
 }
 
 #[test]
+fn route_added_by_replans_counts_only_changes_of_the_way_to_the_next_waypoint() {
+    // Flying the mission unchanged never replaces the stack: nothing added or removed.
+    // The tangent graph replaces it once, at the start, with each leg on its shortest way
+    // round the cylinders: never shorter than the straight first leg, longer where a
+    // cylinder stands on it. A replanning strategy both lengthens and shortens its route.
+    let p = ScenarioParams::default();
+    let mut lengthened = 0;
+    for seed in 0..12 {
+        let s = generate(Family::Static, seed, &p);
+        let none = run(&s, StrategyKind::None, &RunConfig::default()).metrics;
+        assert_eq!((none.route_added_m, none.route_removed_m), (0.0, 0.0));
+        let t = run(&s, StrategyKind::Tangent, &RunConfig::default()).metrics;
+        assert!(t.route_removed_m < 1e-6, "seed {seed}: {t:?}");
+        if t.route_added_m > 1.0 {
+            lengthened += 1;
+        }
+    }
+    assert!(lengthened > 0, "no first leg was routed round a cylinder");
+    let s = generate(Family::Mixed, 4, &p);
+    let r = run(&s, StrategyKind::BisectionAuto, &RunConfig::default()).metrics;
+    assert!(r.route_added_m > 0.0 && r.route_removed_m > 0.0, "{r:?}");
+}
+
+#[test]
 fn a_waypoint_the_autopilot_would_pass_too_wide_is_captured_with_a_straight_approach() {
     // A hairpin: W1 45-50 m to the side of W0 (a turn the 58 m radius cannot make), then
     // back. Flown as given, the autopilot switches past W1 at its finish line 40-60 m wide
