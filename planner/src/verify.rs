@@ -257,9 +257,16 @@ impl Verification {
     /// Unclear only just: no hard violation, the near-term peak within the safe risk and
     /// the graded peak within [`MARGINAL_FACTOR`] times it ([`Verification::better_than`]).
     pub fn marginal(&self, safe_risk: f64) -> bool {
+        self.marginal_within(safe_risk, MARGINAL_FACTOR)
+    }
+
+    /// Unclear by at most `factor`: no hard violation, the near-term peak within the safe
+    /// risk and the graded peak within `factor` times it ([`Verification::marginal`] at
+    /// [`MARGINAL_FACTOR`]).
+    pub fn marginal_within(&self, safe_risk: f64, factor: f64) -> bool {
         self.hard() == 0
             && self.near_peak_risk <= safe_risk
-            && self.graded_peak_risk <= MARGINAL_FACTOR * safe_risk
+            && self.graded_peak_risk <= factor * safe_risk
     }
 
     /// Clear: no hard violation and no risk above the time-graded limit (`safe_risk`

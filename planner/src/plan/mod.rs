@@ -522,9 +522,7 @@ fn manoeuvre_start<'a>(
 /// waypoints, and `best` is longer by more than the slack.
 fn keeps_marginal(base: &Verification, best: &Verification, p: &PlanParams) -> bool {
     p.keep_marginal_factor > 0.0
-        && base.hard() == 0
-        && base.near_peak_risk <= p.safe_risk
-        && base.graded_peak_risk <= p.keep_marginal_factor * p.safe_risk
+        && base.marginal_within(p.safe_risk, p.keep_marginal_factor)
         && base.missed_waypoints <= best.missed_waypoints
         && best.length_m > base.length_m * (1.0 + p.keep_marginal_slack) + p.keep_marginal_slack_m
 }
