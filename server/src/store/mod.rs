@@ -173,7 +173,11 @@ impl Store {
         store.migrate().await?;
         if backend == Backend::Sqlite {
             let w = wal::Wal::new();
-            tokio::spawn(wal::checkpoint_loop(store.read.clone(), w.clone()));
+            tokio::spawn(wal::checkpoint_loop(
+                store.read.clone(),
+                store.write.clone(),
+                w.clone(),
+            ));
             store.wal = Some(w);
             let writer = writer::WriterThread::spawn().map_err(|e| OpenError::Connect(e.into()))?;
             store.group = Some(group_commit::GroupCommit::spawn(store.clone(), &writer));

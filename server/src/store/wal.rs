@@ -22,6 +22,14 @@
 //!   with `journal_size_limit` ([`JOURNAL_SIZE_LIMIT_BYTES`]) a WAL file over 64 MiB is cut
 //!   back then.
 //!
+//! - [`start_over`], right after a background checkpoint that copied the whole WAL: the
+//!   write that starts the WAL over writes its new header and syncs it (SQLite does so at
+//!   every `synchronous` level but OFF), and without this that write was the next request's
+//!   commit. At a flight's load (`plan_load`) the background checkpoint completes every
+//!   [`QUIET_PERIOD`], so about one write in seven (ingest, telemetry, plans) paid a sync of
+//!   0.5-16 ms inside its `store` phase; a one-frame write of the checkpoint's own pays it
+//!   instead, when no request waits for it.
+//!
 //! Tried and not kept: syncing the database file from the background after each of its
 //! copies (`fdatasync` on a handle of its own), so that the writer's sync would find nothing
 //! left: writer checkpoints of at most 3.9-8.8 ms, but two of five 60 s floods had
@@ -71,6 +79,8 @@ pub struct Wal {
     /// Time spent in writer checkpoints, microseconds: in all, and the longest.
     writer_total_us: AtomicI64,
     writer_max_us: AtomicI64,
+    /// WAL restarts made by [`start_over`] (not by a request's commit).
+    started_over: AtomicI64,
 }
 
 /// The result row of `PRAGMA wal_checkpoint`: (busy, frames in the WAL, frames copied).
@@ -102,6 +112,11 @@ impl Wal {
             self.writer_tried.load(Ordering::Relaxed),
             self.writer_complete.load(Ordering::Relaxed),
         )
+    }
+
+    /// WAL restarts made by the background, after its checkpoints ([`start_over`]).
+    pub fn started_over(&self) -> i64 {
+        self.started_over.load(Ordering::Relaxed)
     }
 
     /// Sets the writer's threshold (frames; [`WRITER_THRESHOLD_FRAMES`] by default).
@@ -162,18 +177,65 @@ impl Wal {
              # HELP jink_sqlite_writer_checkpoint_seconds Time the writer's checkpoints held the write connection: in all, and the longest.\n\
              # TYPE jink_sqlite_writer_checkpoint_seconds gauge\n\
              jink_sqlite_writer_checkpoint_seconds{{stat=\"sum\"}} {:.6}\n\
-             jink_sqlite_writer_checkpoint_seconds{{stat=\"max\"}} {:.6}\n",
+             jink_sqlite_writer_checkpoint_seconds{{stat=\"max\"}} {:.6}\n\
+             # HELP jink_sqlite_wal_started_over_total Times the background started the WAL over after a checkpoint that copied all of it (so that no request's commit syncs the new WAL header).\n\
+             # TYPE jink_sqlite_wal_started_over_total counter\n\
+             jink_sqlite_wal_started_over_total {}\n",
             self.frames(),
             secs(&self.writer_total_us),
             secs(&self.writer_max_us),
+            self.started_over(),
         )
+    }
+}
+
+/// Starts the WAL over now, after a checkpoint that copied all of it, so that no request's
+/// commit has to: the write that starts a WAL over writes the new WAL header and syncs it
+/// before its frames (SQLite's `syncHeader`, at every `synchronous` level but OFF). The
+/// write is one frame: `PRAGMA user_version` set to the value it has (jink does not use
+/// it), on the write connection. When a reader still reads the old WAL, SQLite appends
+/// instead and a later commit starts it over, as before.
+///
+/// # Errors
+/// Database failures.
+pub async fn start_over(write: &AnyPool) -> Result<(), sqlx::Error> {
+    let mut c = write.acquire().await?;
+    let v: i64 = sqlx::query("PRAGMA user_version")
+        .fetch_one(&mut *c)
+        .await?
+        .try_get(0)?;
+    sqlx::query(sqlx::AssertSqlSafe(format!("PRAGMA user_version = {v}")))
+        .execute(&mut *c)
+        .await?;
+    Ok(())
+}
+
+/// One background checkpoint (PASSIVE on `read`), then, when it copied the whole WAL and
+/// more than one frame of it (a WAL of one frame is the last restart's own, or a store that
+/// writes about once a checkpoint, where a sync now and then costs nobody a deadline),
+/// [`start_over`] on `write`.
+pub async fn checkpoint_once(read: &AnyPool, write: &AnyPool, wal: &Wal) {
+    match checkpoint(read).await {
+        Ok((busy, log, copied)) => {
+            wal.frames.store(log, Ordering::Relaxed);
+            if busy == 0 && log > 1 && copied == log {
+                match start_over(write).await {
+                    Ok(()) => {
+                        wal.started_over.fetch_add(1, Ordering::Relaxed);
+                    }
+                    Err(e) => tracing::warn!(error = %e, "starting the WAL over failed"),
+                }
+            }
+        }
+        Err(e) => tracing::warn!(error = %e, "WAL checkpoint failed"),
     }
 }
 
 /// Copies the SQLite WAL into the database file in the background (PASSIVE: it never
 /// blocks the writer or readers), often while the WAL is long, so that the writer's
-/// checkpoints ([`Wal::on_writer_idle`]) have little left to copy.
-pub async fn checkpoint_loop(pool: AnyPool, wal: Arc<Wal>) {
+/// checkpoints ([`Wal::on_writer_idle`]) have little left to copy; after a checkpoint that
+/// copied all of it, starts the WAL over ([`checkpoint_once`]).
+pub async fn checkpoint_loop(pool: AnyPool, write: AnyPool, wal: Arc<Wal>) {
     let mut tick = tokio::time::interval(BACKGROUND_PERIOD);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut last: Option<Instant> = None;
@@ -187,16 +249,124 @@ pub async fn checkpoint_loop(pool: AnyPool, wal: Arc<Wal>) {
             continue;
         }
         last = Some(Instant::now());
-        match checkpoint(&pool).await {
-            Ok((_, log, _)) => wal.frames.store(log, Ordering::Relaxed),
-            Err(e) => tracing::warn!(error = %e, "WAL checkpoint failed"),
-        }
+        checkpoint_once(&pool, &write, &wal).await;
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use sqlx::Executor;
+
+    /// A write and a read pool on a new SQLite file with the store's pragmas, one table,
+    /// and the path of its WAL file.
+    async fn pools(dir: &tempfile::TempDir) -> (AnyPool, AnyPool, std::path::PathBuf) {
+        sqlx::any::install_default_drivers();
+        let path = dir.path().join("w.sqlite");
+        let url = format!("sqlite://{}?mode=rwc", path.display());
+        let pool = || {
+            sqlx::any::AnyPoolOptions::new()
+                .max_connections(1)
+                .after_connect(|conn, _| {
+                    Box::pin(async move {
+                        conn.execute(super::super::SQLITE_PRAGMAS).await?;
+                        Ok(())
+                    })
+                })
+        };
+        let write = pool().connect(&url).await.expect("write pool");
+        let read = pool().connect(&url).await.expect("read pool");
+        sqlx::query("CREATE TABLE t (x INTEGER)")
+            .execute(&write)
+            .await
+            .expect("table");
+        (read, write, dir.path().join("w.sqlite-wal"))
+    }
+
+    /// The WAL header's checkpoint sequence number (bytes 12-15, big-endian), which SQLite
+    /// raises by one each time it starts the WAL over (the write that does so writes the
+    /// header anew and syncs it).
+    fn restarts_so_far(wal_file: &std::path::Path) -> u32 {
+        let b = std::fs::read(wal_file).expect("WAL file");
+        u32::from_be_bytes([b[12], b[13], b[14], b[15]])
+    }
+
+    async fn commit(write: &AnyPool, x: i64) {
+        sqlx::query("INSERT INTO t (x) VALUES (?)")
+            .bind(x)
+            .execute(write)
+            .await
+            .expect("insert");
+    }
+
+    #[tokio::test]
+    async fn after_a_checkpoint_that_copied_everything_no_request_commit_starts_the_wal_over() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let (read, write, wal_file) = pools(&dir).await;
+        for x in 0..3 {
+            commit(&write, x).await;
+        }
+        // Without `start_over` (a bare checkpoint, as before): the WAL is copied, and the
+        // next commit is the one that starts it over.
+        let (busy, log, copied) = checkpoint(&read).await.expect("checkpoint");
+        assert_eq!(
+            (busy, copied),
+            (0, log),
+            "the checkpoint copied the whole WAL"
+        );
+        let before = restarts_so_far(&wal_file);
+        commit(&write, 3).await;
+        assert_eq!(
+            restarts_so_far(&wal_file),
+            before + 1,
+            "a bare checkpoint leaves the restart (and its sync) to the next commit"
+        );
+        for x in 4..6 {
+            commit(&write, x).await;
+        }
+        // With it: the checkpoint's own one-frame write starts the WAL over, and the next
+        // commit appends to the WAL as it finds it.
+        let wal = Wal::new();
+        let before = restarts_so_far(&wal_file);
+        checkpoint_once(&read, &write, &wal).await;
+        assert_eq!(
+            restarts_so_far(&wal_file),
+            before + 1,
+            "started over by the background"
+        );
+        assert_eq!(wal.started_over(), 1);
+        commit(&write, 6).await;
+        assert_eq!(
+            restarts_so_far(&wal_file),
+            before + 1,
+            "the commit after it did not start the WAL over"
+        );
+        let (_, log, _) = checkpoint(&read).await.expect("checkpoint");
+        assert_eq!(
+            log, 2,
+            "the WAL holds the start-over frame and the commit's"
+        );
+        // A WAL of one frame (an idle store: the last start-over's own) is left alone, so an
+        // idle store does not write and sync every period.
+        let (_, log, _) = checkpoint(&read).await.expect("checkpoint");
+        assert_eq!(log, 2);
+        checkpoint_once(&read, &write, &wal).await;
+        assert_eq!(wal.started_over(), 2, "two frames copied: started over");
+        checkpoint_once(&read, &write, &wal).await;
+        assert_eq!(wal.started_over(), 2, "one frame, its own: not again");
+        assert!(
+            wal.render_metrics()
+                .contains("jink_sqlite_wal_started_over_total 2")
+        );
+        // Nothing was lost on the way.
+        let n: i64 = sqlx::query("SELECT COUNT(*) FROM t")
+            .fetch_one(&read)
+            .await
+            .expect("count")
+            .try_get(0)
+            .expect("count");
+        assert_eq!(n, 7);
+    }
 
     #[test]
     fn the_writer_checkpoints_only_a_long_wal_and_at_most_once_a_second() {
