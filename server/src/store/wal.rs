@@ -26,9 +26,9 @@
 //!   write that starts the WAL over writes its new header and syncs it (SQLite does so at
 //!   every `synchronous` level but OFF), and without this that write was the next request's
 //!   commit. At a flight's load (`plan_load`) the background checkpoint completes every
-//!   [`QUIET_PERIOD`], so about one write in seven (ingest, telemetry, plans) paid a sync of
-//!   0.5-16 ms inside its `store` phase; a one-frame write of the checkpoint's own pays it
-//!   instead, when no request waits for it.
+//!   [`QUIET_PERIOD`], so about one write in seven to ten (ingest, telemetry, plans) paid a
+//!   sync of 0.45-7.4 ms inside its `store` phase (`strace -T` of the writer's thread); a
+//!   one-frame write of the checkpoint's own pays it instead, when no request waits for it.
 //!
 //! Tried and not kept: syncing the database file from the background after each of its
 //! copies (`fdatasync` on a handle of its own), so that the writer's sync would find nothing
