@@ -1,7 +1,7 @@
 """Which SQLite commit pays for starting the WAL over (README: "The WAL started over by the
 background", under "Live mission state").
 
-A 10-row observation batch transaction on the store's schema, 600 commits 30 ms apart,
+A 10-row observation batch transaction on the store's schema (its migrations), 600 commits 30 ms apart,
 with a PASSIVE checkpoint (on a second connection) before every third commit. The WAL mode
 and pragmas are the store's (`synchronous=NORMAL`, no auto-checkpoint). Modes:
 
@@ -23,17 +23,12 @@ import sys
 import tempfile
 import time
 
-SCHEMA = """
-CREATE TABLE missions (id TEXT PRIMARY KEY, obs_seq BIGINT NOT NULL DEFAULT 0, body TEXT);
-CREATE TABLE obstacle_observations (
-    mission_id TEXT NOT NULL REFERENCES missions (id), obstacle_id TEXT NOT NULL,
-    t_us BIGINT NOT NULL, lat_deg DOUBLE PRECISION NOT NULL, lon_deg DOUBLE PRECISION NOT NULL,
-    alt_msl_m DOUBLE PRECISION NOT NULL, radius_m DOUBLE PRECISION NOT NULL,
-    received_at_us BIGINT NOT NULL, seq BIGINT NOT NULL DEFAULT 0,
-    PRIMARY KEY (mission_id, obstacle_id, t_us)) WITHOUT ROWID;
-CREATE INDEX obstacle_observations_by_seq ON obstacle_observations (mission_id, seq);
-INSERT INTO missions (id) VALUES ('m');
-"""
+# The store's schema: the repository's own SQLite migrations, applied in order.
+MIGRATIONS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "migrations", "sqlite")
+INSERT = (
+    "INSERT INTO obstacle_observations (mission_id, obstacle_id, t_us, lat_deg, lon_deg, "
+    "alt_msl_m, radius_m, received_at_us, seq, written_by) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
+)
 PRAGMAS = [
     "PRAGMA journal_mode=WAL",
     "PRAGMA synchronous=NORMAL",
@@ -53,7 +48,12 @@ def main() -> None:
         for p in PRAGMAS:
             write.execute(p)
             read.execute(p)
-        write.executescript(SCHEMA)
+        for name in sorted(os.listdir(MIGRATIONS)):
+            with open(os.path.join(MIGRATIONS, name), encoding="utf-8") as f:
+                write.executescript(f.read())
+        write.execute(
+            "INSERT INTO missions (id, created_at_us, source_format, body) VALUES ('m', 0, 'native', '{}')"
+        )
         ms = []
         for i in range(600):
             time.sleep(0.03)
@@ -65,15 +65,13 @@ def main() -> None:
                 time.sleep(0.03)
             rows = [
                 ("m", str(k), 1_700_000_000_000_000 + i * 200_000, 38.1 + k * 1e-4, -76.4,
-                 60.0, 10.0, 1, i + 1)
+                 60.0, 10.0, 1, i + 1, "local")
                 for k in range(10)
             ]
             start = time.perf_counter()
             write.execute("BEGIN")
             write.execute("UPDATE missions SET obs_seq = obs_seq + 1 WHERE id = 'm'")
-            write.executemany(
-                "INSERT INTO obstacle_observations VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)", rows
-            )
+            write.executemany(INSERT, rows)
             write.execute("COMMIT")
             ms.append((time.perf_counter() - start) * 1e3)
         ms.sort()
