@@ -16,6 +16,14 @@
 //! `--server URL` flies against a service already running (the browser test does, so that
 //! it can restart that service under the page) instead of starting one.
 //!
+//! Each flight is scored the judges' way at its end (`sim::scoring::judge` on the aircraft's
+//! true track at 5 Hz: spheres and cylinders hit, waypoints captured, path ratio, time out of
+//! the fly zone). `--flights N` flies seeds `--seed` .. `--seed + N - 1` side by side
+//! (`--parallel` at a time) against the one service and prints a table; `--compare
+//! oracle,mc-auto` flies the simulator's strategies in process on the same scenarios (the
+//! scenario of a seed is `jink simulate --mission <the fixture> --family spline`'s), so that
+//! the real-time flight over HTTP is set beside perfect knowledge.
+//!
 //! Everything the flight does is reproducible from `--seed` except timing: the obstacles'
 //! tours and the plans' seeds are, the moments at which plans are asked are not.
 
@@ -26,8 +34,9 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use serde_json::{Value, json};
 use sim::aircraft::{AircraftParams, Autopilot};
-use sim::mission::{ItemKind, Stack, StackItem, initial_stack};
+use sim::mission::{ItemKind, Stack, StackItem, initial_stack, straight_length_m};
 use sim::scenario::{Family, Scenario, with_moving_spheres};
+use sim::strategy::StrategyKind;
 
 use crate::api::plans::{KindOut, PlanOut};
 use crate::app::{AppState, Settings};
@@ -74,6 +83,39 @@ pub struct DemoArgs {
     /// `http://127.0.0.1:8080`) instead of starting one; exits after the flight.
     #[arg(long)]
     pub server: Option<String>,
+
+    /// Flights to fly, seeds `--seed`, `--seed` + 1, ...: more than one fly side by side
+    /// against the one service, and a table of their judged scores is printed.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    pub flights: u64,
+
+    /// At most this many flights in the air at once.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=100))]
+    pub parallel: u64,
+
+    /// The simulated aircraft's speed, m/s (also sent to the service, unless `--bare`).
+    #[arg(long, default_value_t = 20.0)]
+    pub aircraft_speed: f64,
+
+    /// The simulated aircraft's largest bank, degrees (its turn radius follows; sent to the
+    /// service, unless `--bare`).
+    #[arg(long, default_value_t = 35.0)]
+    pub max_bank_deg: f64,
+
+    /// Tell the service the least a client can: telemetry without a speed, plan requests
+    /// without `aircraft` (as a client speaking only the interop forms).
+    #[arg(long)]
+    pub bare: bool,
+
+    /// Also fly these `jink simulate` strategies in process on the same scenarios, for
+    /// comparison (e.g. `oracle,mc-auto`); they fly the simulator's clock (stopped while
+    /// planning) and its 2 Hz noisy obstacle telemetry.
+    #[arg(long, value_delimiter = ',')]
+    pub compare: Vec<String>,
+
+    /// Exit after the flights instead of keeping the service and its page up.
+    #[arg(long)]
+    pub exit: bool,
 }
 
 /// Runs the demo.
@@ -95,14 +137,36 @@ pub fn run(args: DemoArgs) -> ExitCode {
 }
 
 async fn demo(args: DemoArgs) -> Result<(), String> {
+    for (flag, v, lo, hi, unit) in [
+        ("--aircraft-speed", args.aircraft_speed, 5.0, 100.0, "m/s"),
+        ("--max-bank-deg", args.max_bank_deg, 10.0, 70.0, "degrees"),
+    ] {
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            return Err(format!("{flag} must be in [{lo}, {hi}] {unit}"));
+        }
+    }
+    let mut compare = Vec::new();
+    for name in &args.compare {
+        match StrategyKind::parse(name) {
+            Some(k) if StrategyKind::ALL.contains(&k) => compare.push(k),
+            _ => return Err(format!("--compare: unknown in-process strategy {name:?}")),
+        }
+    }
     let flight = FlightParams {
         seed: args.seed,
         duration_s: args.duration,
         obstacles: usize::from(args.obstacles),
+        aircraft: AircraftParams::default()
+            .speed_mps(args.aircraft_speed)
+            .max_bank_deg(args.max_bank_deg),
+        bare: args.bare,
+        quiet: args.flights > 1,
     };
+    let seeds: Vec<u64> = (args.seed..args.seed.saturating_add(args.flights)).collect();
+    let parallel = usize::try_from(args.parallel).unwrap_or(1);
     if let Some(base) = &args.server {
         let base = base.trim_end_matches('/').to_string();
-        return fly(&base, &flight).await.map(|_| ());
+        return fly_all(&base, &flight, &seeds, parallel, &compare).await;
     }
     // The database lives in a temporary directory removed at exit.
     let dir = tempfile::Builder::new()
@@ -119,15 +183,112 @@ async fn demo(args: DemoArgs) -> Result<(), String> {
     let local = listener.local_addr().map_err(|e| e.to_string())?;
     let server = tokio::spawn(crate::app::serve_on(listener, state));
     let base = format!("http://{local}");
-    let summary = fly(&base, &flight).await?;
-    println!(
-        "jink demo: flight finished ({summary}); the page stays up at {base}/missions/{}: press Ctrl-C to stop",
-        summary.mission_id
-    );
+    fly_all(&base, &flight, &seeds, parallel, &compare).await?;
+    if args.exit {
+        return Ok(());
+    }
+    println!("jink demo: the page stays up at {base}/: press Ctrl-C to stop");
     match server.await {
         Ok(r) => r.map_err(|e| e.to_string()),
         Err(e) => Err(e.to_string()),
     }
+}
+
+/// Flies `seeds` (one flight each, at most `parallel` at once) against the service at
+/// `base`, prints each flight's judged score, then (several flights, or `compare`) a table
+/// with the in-process strategies of `compare` flown on the same scenarios.
+async fn fly_all(
+    base: &str,
+    flight: &FlightParams,
+    seeds: &[u64],
+    parallel: usize,
+    compare: &[StrategyKind],
+) -> Result<(), String> {
+    let started = Instant::now();
+    let gate = std::sync::Arc::new(tokio::sync::Semaphore::new(parallel.max(1)));
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let mut tasks = tokio::task::JoinSet::new();
+    for &seed in seeds {
+        let (gate, done, base) = (gate.clone(), done.clone(), base.to_string());
+        let p = FlightParams {
+            seed,
+            ..flight.clone()
+        };
+        tasks.spawn(async move {
+            let _slot = gate.acquire_owned().await;
+            let r = fly(&base, &p).await;
+            done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            (seed, r)
+        });
+    }
+    let mut flown: Vec<(u64, FlightSummary)> = Vec::new();
+    let mut errors = Vec::new();
+    let mut tick = tokio::time::interval(Duration::from_secs(10));
+    tick.tick().await;
+    loop {
+        tokio::select! {
+            joined = tasks.join_next() => match joined {
+                None => break,
+                Some(Ok((seed, Ok(s)))) => {
+                    println!("jink demo: seed {seed}, mission {}: {s}", s.mission_id);
+                    flown.push((seed, s));
+                }
+                Some(Ok((seed, Err(e)))) => errors.push(format!("seed {seed}: {e}")),
+                Some(Err(e)) => errors.push(e.to_string()),
+            },
+            _ = tick.tick(), if seeds.len() > 1 => println!(
+                "jink demo: [{:>4.0} s] {} of {} flights done",
+                started.elapsed().as_secs_f64(),
+                done.load(std::sync::atomic::Ordering::Relaxed),
+                seeds.len()
+            ),
+        }
+    }
+    if !errors.is_empty() {
+        return Err(errors.join("; "));
+    }
+    flown.sort_by_key(|(seed, _)| *seed);
+    if seeds.len() == 1 && compare.is_empty() {
+        return Ok(());
+    }
+    let client = if flight.bare {
+        "jink over HTTP, real time, bare client"
+    } else {
+        "jink over HTTP, real time"
+    };
+    let mut rows = vec![(
+        client.to_string(),
+        flown.iter().map(|(seed, s)| (*seed, s.score)).collect(),
+    )];
+    for &k in compare {
+        let (p, seeds) = (flight.clone(), seeds.to_vec());
+        let scores = tokio::task::spawn_blocking(move || {
+            let mission = fixture_mission();
+            let cfg = sim::run::RunConfig {
+                aircraft: p.aircraft,
+                record_track: false,
+                ..sim::run::RunConfig::default()
+            };
+            seeds
+                .iter()
+                .map(|&seed| {
+                    let mut sc = scenario(&mission, seed, p.obstacles, p.aircraft.speed_mps);
+                    // As long as the flights over HTTP flew.
+                    sc.duration_s = p.duration_s.map_or(sc.duration_s, |d| d.min(sc.duration_s));
+                    let r = sim::run::run(&sc, k, &cfg);
+                    (seed, FlightScore::of_run(&r.metrics))
+                })
+                .collect::<Vec<_>>()
+        })
+        .await
+        .map_err(|e| e.to_string())?;
+        rows.push((
+            format!("`{}` (in process, same scenarios)", k.name()),
+            scores,
+        ));
+    }
+    println!("{}", score_table(&rows));
+    Ok(())
 }
 
 /// What to fly.
@@ -139,6 +300,12 @@ pub struct FlightParams {
     pub duration_s: Option<f64>,
     /// Moving obstacles.
     pub obstacles: usize,
+    /// The simulated aircraft.
+    pub aircraft: AircraftParams,
+    /// Send no speed and no `aircraft` (the interop forms have neither).
+    pub bare: bool,
+    /// No progress lines (several flights at once).
+    pub quiet: bool,
 }
 
 /// How a flight went.
@@ -154,27 +321,165 @@ pub struct FlightSummary {
     pub waypoints: (usize, usize),
     /// Requests that failed (the service was unreachable or refused).
     pub failed_requests: u64,
+    /// The flight scored as the judges score it.
+    pub score: FlightScore,
+    /// Plan requests' round trips, milliseconds: p50 and p95.
+    pub plan_ms: (f64, f64),
 }
 
 impl std::fmt::Display for FlightSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{:.0} s flown, waypoint {}/{}, plan revision {}, {} failed requests",
-            self.flown_s, self.waypoints.0, self.waypoints.1, self.revision, self.failed_requests
+            "{:.0} s flown, waypoint {}/{}, plan revision {}, {} failed requests, plan round trip p50 {:.1} ms p95 {:.1} ms; judged: {}",
+            self.flown_s,
+            self.waypoints.0,
+            self.waypoints.1,
+            self.revision,
+            self.failed_requests,
+            self.plan_ms.0,
+            self.plan_ms.1,
+            self.score
         )
     }
 }
 
-/// The demo's scenario on `mission` (as stored): moving spheres on spline tours from the
-/// seed, the aircraft starting 200 m south of the first waypoint at its altitude.
-pub fn scenario(mission: &Mission, seed: u64, obstacles: usize) -> Scenario {
+/// A flight scored the judges' way (`sim::scoring::judge` on the true track at 5 Hz).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FlightScore {
+    /// Moving spheres entered.
+    pub sphere_hits: usize,
+    /// Cylinders entered.
+    pub cylinder_hits: usize,
+    /// Mission waypoints captured (within the judges' 100 ft).
+    pub waypoints_captured: usize,
+    /// Mission waypoints.
+    pub waypoints: usize,
+    /// Path flown over the straight route through the waypoints.
+    pub path_ratio: f64,
+    /// Closest approach to any obstacle's surface, metres (negative: inside).
+    pub min_clearance_m: f64,
+    /// Seconds outside the fly zone.
+    pub out_of_zone_s: f64,
+    /// Seconds flown.
+    pub time_s: f64,
+}
+
+impl FlightScore {
+    /// Scores a flight of `scenario`: the aircraft's true positions `track` (time, ENU and
+    /// MSL) and the length of its path `path_m`.
+    pub fn judge(scenario: &Scenario, track: &[(f64, [f64; 3])], path_m: f64) -> Self {
+        let m = &scenario.mission;
+        let jr = sim::scoring::judge(track, scenario, m);
+        let straight = straight_length_m(m, scenario.start_m);
+        Self {
+            sphere_hits: jr.sphere_hits.iter().filter(|h| **h).count(),
+            cylinder_hits: jr.cylinder_hits.iter().filter(|h| **h).count(),
+            waypoints_captured: jr.waypoints_captured.iter().filter(|h| **h).count(),
+            waypoints: jr.waypoints_captured.len(),
+            path_ratio: if straight > 0.0 {
+                path_m / straight
+            } else {
+                1.0
+            },
+            min_clearance_m: jr.min_clearance_m,
+            out_of_zone_s: jr.boundary_violation_s,
+            time_s: track.last().map_or(0.0, |p| p.0),
+        }
+    }
+
+    /// The same figures of an in-process simulator run.
+    pub fn of_run(m: &sim::run::RunMetrics) -> Self {
+        Self {
+            sphere_hits: m.spheres_hit,
+            cylinder_hits: m.cylinders_hit,
+            waypoints_captured: m.waypoints_captured,
+            waypoints: m.waypoints,
+            path_ratio: m.path_ratio,
+            min_clearance_m: m.min_clearance_m,
+            out_of_zone_s: m.boundary_violation_s,
+            time_s: m.mission_time_s,
+        }
+    }
+}
+
+impl std::fmt::Display for FlightScore {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} spheres and {} cylinders hit, {}/{} waypoints captured, path ratio {:.3}, {:.1} s out of the fly zone, closest {:.1} m",
+            self.sphere_hits,
+            self.cylinder_hits,
+            self.waypoints_captured,
+            self.waypoints,
+            self.path_ratio,
+            self.out_of_zone_s,
+            self.min_clearance_m
+        )
+    }
+}
+
+/// A markdown table of judged flights, one row per client: flights, clean ones, sphere
+/// hits (with the seeds that took them), cylinder hits, waypoints, path ratio mean / p50,
+/// mean time, time out of the fly zone.
+pub fn score_table(rows: &[(String, Vec<(u64, FlightScore)>)]) -> String {
+    let mut out = String::from(
+        "| client | flights | clean | sphere hits (seeds) | cylinder hits | waypoints | path ratio mean / p50 | mean time (s) | out of the fly zone (s a flight) |\n|---|---:|---:|---|---:|---:|---|---:|---:|\n",
+    );
+    for (name, flights) in rows {
+        let n = flights.len().max(1) as f64;
+        let clean = flights
+            .iter()
+            .filter(|(_, s)| s.sphere_hits + s.cylinder_hits == 0)
+            .count();
+        let hits: usize = flights.iter().map(|(_, s)| s.sphere_hits).sum();
+        let hit_seeds: Vec<String> = flights
+            .iter()
+            .filter(|(_, s)| s.sphere_hits > 0)
+            .map(|(seed, _)| seed.to_string())
+            .collect();
+        let ratios: Vec<f64> = flights.iter().map(|(_, s)| s.path_ratio).collect();
+        let sum = |f: fn(&FlightScore) -> f64| flights.iter().map(|(_, s)| f(s)).sum::<f64>();
+        out.push_str(&format!(
+            "| {name} | {} | {clean} | {hits}{} | {} | {} / {} | {:.3} / {:.3} | {:.1} | {:.1} |\n",
+            flights.len(),
+            if hit_seeds.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", hit_seeds.join(", "))
+            },
+            flights.iter().map(|(_, s)| s.cylinder_hits).sum::<usize>(),
+            flights
+                .iter()
+                .map(|(_, s)| s.waypoints_captured)
+                .sum::<usize>(),
+            flights.iter().map(|(_, s)| s.waypoints).sum::<usize>(),
+            sum(|s| s.path_ratio) / n,
+            sim::run::percentile(&ratios, 0.5),
+            sum(|s| s.time_s) / n,
+            sum(|s| s.out_of_zone_s) / n,
+        ));
+    }
+    out
+}
+
+/// The embedded Webster Field mission, read as `jink simulate --mission` reads the fixture.
+fn fixture_mission() -> Mission {
+    wire::domain::read_mission_text(MISSION_JSON, "demo").expect("the embedded fixture reads")
+}
+
+/// The demo's scenario on `mission`: `obstacles` moving spheres on spline tours from the
+/// seed, the aircraft starting at home at the first waypoint's altitude: the scenario `jink
+/// simulate --mission <the mission> --family spline --spheres <obstacles> --aircraft-speed
+/// <speed_mps>` flies for the same seed.
+pub fn scenario(mission: &Mission, seed: u64, obstacles: usize, speed_mps: f64) -> Scenario {
     let pm = mission.to_planner();
-    let first = pm
-        .waypoints
-        .first()
-        .map_or([0.0, 0.0, 100.0], |w| [w.p_m[0], w.p_m[1] - 200.0, w.alt_m]);
-    with_moving_spheres(pm, first, Family::Spline, seed, obstacles, 20.0)
+    let start = mission.home_start().unwrap_or_else(|| {
+        pm.waypoints
+            .first()
+            .map_or([0.0, 0.0, 100.0], |w| [w.p_m[0], w.p_m[1] - 200.0, w.alt_m])
+    });
+    with_moving_spheres(pm, start, Family::Spline, seed, obstacles, speed_mps)
 }
 
 /// The interop 2018 `/api/obstacles` snapshot of the scenario's spheres at mission time
@@ -277,20 +582,31 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
     let mission: Mission = resp.json().await.map_err(|e| e.to_string())?;
     let id = mission.id.to_string();
     let frame = mission.frame();
-    let scenario = scenario(&mission, p.seed, p.obstacles);
-    let params = AircraftParams::default();
+    let scenario = scenario(
+        &fixture_mission(),
+        p.seed,
+        p.obstacles,
+        p.aircraft.speed_mps,
+    );
+    let params = p.aircraft;
     let mut stack = initial_stack(&scenario.mission);
     let toward = stack.target().map_or([0.0, 0.0], |t| t.p_m);
     let mut ap = Autopilot::new(params, scenario.start_m, toward);
     let duration_s = p.duration_s.unwrap_or(scenario.duration_s).max(0.0);
-    println!("jink demo: the live page is {base}/missions/{id}");
-    println!(
-        "jink demo: flying mission {id} (Webster Field 2021) against {} moving obstacles on spline tours, seed {}, for {}",
-        scenario.spheres.len(),
-        p.seed,
-        p.duration_s
-            .map_or("the whole mission".to_string(), |d| format!("{d} s"))
-    );
+    if !p.quiet {
+        println!("jink demo: the live page is {base}/missions/{id}");
+        println!(
+            "jink demo: flying mission {id} (Webster Field 2021) against {} moving obstacles on spline tours, seed {}, for {}",
+            scenario.spheres.len(),
+            p.seed,
+            p.duration_s
+                .map_or("the whole mission".to_string(), |d| format!("{d} s"))
+        );
+    }
+    // The aircraft's true positions at 5 Hz, as the judges' telemetry, and its path.
+    let mut judged = vec![(ap.state.t_s, ap.state.p_m)];
+    let mut path_m = 0.0;
+    let plan_ms = std::sync::Arc::new(std::sync::Mutex::new(Vec::<f64>::new()));
 
     let t0_s = crate::time::now_s();
     let started = Instant::now();
@@ -313,11 +629,19 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
         // Catch up with the wall clock: the simulation runs in real time.
         let elapsed = started.elapsed().as_secs_f64();
         while (step as f64) * STEP_S < elapsed && stack.target().is_some() {
+            let before = ap.state.p_m;
             ap.step(&mut stack, STEP_S);
+            path_m += (ap.state.p_m[0] - before[0]).hypot(ap.state.p_m[1] - before[1]);
             step += 1;
             let t_s = t0_s + step as f64 * STEP_S;
             if step.is_multiple_of(POST_EVERY) {
-                let telemetry = telemetry_json(&ap.state, &frame, t_s);
+                judged.push((ap.state.t_s, ap.state.p_m));
+                let mut telemetry = telemetry_json(&ap.state, &frame, t_s);
+                if p.bare
+                    && let Some(o) = telemetry.as_object_mut()
+                {
+                    o.remove("speed_mps");
+                }
                 let snapshot = obstacle_snapshot(&scenario, &frame, ap.state.t_s);
                 post_detached(
                     &client,
@@ -334,20 +658,31 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
             }
             if step.is_multiple_of(PLAN_EVERY) && plan_in_flight.is_none() {
                 plan_in_flight = Some(stack.current);
-                let body = json!({
+                let mut body = json!({
                     "seed": p.seed.wrapping_mul(1_000_003).wrapping_add(step / PLAN_EVERY),
                     "deadline_ms": PLAN_DEADLINE_MS,
                     "base_revision": revision,
                     "current_index": stack.current,
                     "aircraft": {"speed_mps": params.speed_mps, "turn_radius_m": params.min_turn_radius_m()},
                 });
-                let (client, url, tx) = (
+                if p.bare
+                    && let Some(o) = body.as_object_mut()
+                {
+                    o.remove("aircraft");
+                }
+                let (client, url, tx, times) = (
                     client.clone(),
                     format!("{base}/api/v1/missions/{id}/plan"),
                     plan_tx.clone(),
+                    plan_ms.clone(),
                 );
                 tokio::spawn(async move {
-                    let _ = tx.send(request_plan(&client, &url, &body).await).await;
+                    let asked = Instant::now();
+                    let answer = request_plan(&client, &url, &body).await;
+                    if let Ok(mut t) = times.lock() {
+                        t.push(asked.elapsed().as_secs_f64() * 1e3);
+                    }
+                    let _ = tx.send(answer).await;
                 });
             }
         }
@@ -380,19 +715,30 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
             .iter()
             .filter(|i| i.mission_index.is_some())
             .count();
-        progress.show(|| {
-            format!(
-                "waypoint {passed}/{total_wp}, {last_plan}, {} failed requests",
-                failed.load(std::sync::atomic::Ordering::Relaxed)
-            )
-        });
+        if !p.quiet {
+            progress.show(|| {
+                format!(
+                    "waypoint {passed}/{total_wp}, {last_plan}, {} failed requests",
+                    failed.load(std::sync::atomic::Ordering::Relaxed)
+                )
+            });
+        }
         if stack.target().is_none() || elapsed >= duration_s {
+            if judged.last().is_some_and(|l| l.0 < ap.state.t_s) {
+                judged.push((ap.state.t_s, ap.state.p_m));
+            }
+            let times = plan_ms.lock().map(|t| t.clone()).unwrap_or_default();
             return Ok(FlightSummary {
                 mission_id: id,
                 flown_s: elapsed,
                 revision,
                 waypoints: (passed, total_wp),
                 failed_requests: failed.load(std::sync::atomic::Ordering::Relaxed),
+                score: FlightScore::judge(&scenario, &judged, path_m),
+                plan_ms: (
+                    sim::run::percentile(&times, 0.5),
+                    sim::run::percentile(&times, 0.95),
+                ),
             });
         }
     }
@@ -448,7 +794,7 @@ mod tests {
     #[test]
     fn the_obstacle_snapshot_is_the_judges_form_in_feet_at_the_spheres_true_positions() {
         let m = webster();
-        let s = scenario(&m, 7, 4);
+        let s = scenario(&m, 7, 4, 20.0);
         assert_eq!(s.spheres.len(), 4);
         let frame = m.frame();
         let snap = obstacle_snapshot(&s, &frame, 12.5);
@@ -469,11 +815,94 @@ mod tests {
     #[test]
     fn the_same_seed_flies_the_same_obstacles_and_another_seed_others() {
         let m = webster();
-        let a = scenario(&m, 3, 6);
-        let b = scenario(&m, 3, 6);
-        let c = scenario(&m, 4, 6);
+        let a = scenario(&m, 3, 6, 20.0);
+        let b = scenario(&m, 3, 6, 20.0);
+        let c = scenario(&m, 4, 6, 20.0);
         assert_eq!(a.spheres, b.spheres);
         assert_ne!(a.spheres, c.spheres);
+    }
+
+    #[test]
+    fn a_seed_flies_the_scenario_jink_simulate_flies_for_it() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../tests/fixtures/interop/mission_2021_webster_field.json");
+        let (m, start) = crate::cli::simulate::load_mission(&path).unwrap();
+        for seed in [0, 146] {
+            let ours = scenario(&webster(), seed, 10, 18.0);
+            let simulate = with_moving_spheres(m.clone(), start, Family::Spline, seed, 10, 18.0);
+            assert_eq!(ours.start_m, simulate.start_m);
+            assert_eq!(ours.spheres, simulate.spheres);
+            assert_eq!(ours.mission, simulate.mission);
+        }
+    }
+
+    #[test]
+    fn a_flight_is_judged_against_the_spheres_true_positions() {
+        let s = scenario(&webster(), 5, 3, 20.0);
+        let straight = straight_length_m(&s.mission, s.start_m);
+        // Ten seconds sitting in sphere 1's centre as it moves: a hit of that sphere only
+        // (the others are elsewhere at those moments, checked below against the truth).
+        let inside: Vec<(f64, [f64; 3])> = (0..=50)
+            .map(|k| {
+                let t = 100.0 + f64::from(k) * 0.2;
+                (t, s.spheres[1].track.at(t))
+            })
+            .collect();
+        let others_clear = inside.iter().all(|&(t, p)| {
+            [0, 2].iter().all(|&i| {
+                let c = s.spheres[i].track.at(t);
+                let d =
+                    ((p[0] - c[0]).powi(2) + (p[1] - c[1]).powi(2) + (p[2] - c[2]).powi(2)).sqrt();
+                d > s.spheres[i].radius_m
+            })
+        });
+        let hit = FlightScore::judge(&s, &inside, 2.0 * straight);
+        assert!(others_clear, "the test's track must meet sphere 1 alone");
+        assert_eq!(hit.sphere_hits, 1, "{hit}");
+        assert!(hit.min_clearance_m < 0.0, "{hit}");
+        assert!((hit.path_ratio - 2.0).abs() < 1e-12, "{hit}");
+        assert!((hit.time_s - 110.0).abs() < 1e-9, "{hit}");
+        // Every waypoint visited, at each one's own altitude, far from every sphere's truth
+        // is checked by the judge itself: all captured.
+        let visits: Vec<(f64, [f64; 3])> = s
+            .mission
+            .waypoints
+            .iter()
+            .enumerate()
+            .map(|(k, w)| (k as f64 * 20.0, [w.p_m[0], w.p_m[1], w.alt_m]))
+            .collect();
+        let v = FlightScore::judge(&s, &visits, straight);
+        assert_eq!(
+            (v.waypoints_captured, v.waypoints),
+            (s.mission.waypoints.len(), s.mission.waypoints.len())
+        );
+    }
+
+    #[test]
+    fn the_table_counts_clean_flights_and_names_the_seeds_that_hit() {
+        let score = |spheres, cylinders, ratio| FlightScore {
+            sphere_hits: spheres,
+            cylinder_hits: cylinders,
+            waypoints_captured: 13,
+            waypoints: 14,
+            path_ratio: ratio,
+            min_clearance_m: 3.0,
+            out_of_zone_s: 2.0,
+            time_s: 300.0,
+        };
+        let t = score_table(&[(
+            "jink".into(),
+            vec![
+                (4, score(0, 0, 1.1)),
+                (5, score(2, 0, 1.3)),
+                (6, score(0, 1, 1.2)),
+            ],
+        )]);
+        let row = t.lines().nth(2).unwrap();
+        assert_eq!(
+            row,
+            "| jink | 3 | 1 | 2 (5) | 1 | 39 / 42 | 1.200 / 1.200 | 300.0 | 2.0 |"
+        );
     }
 
     #[test]
