@@ -108,8 +108,8 @@ pub struct DemoArgs {
     pub bare: bool,
 
     /// Also fly these `jink simulate` strategies in process on the same scenarios, for
-    /// comparison (e.g. `oracle,mc-auto`); they fly the simulator's clock (stopped while
-    /// planning) and its 2 Hz noisy obstacle telemetry.
+    /// comparison (e.g. `oracle,mc-auto`); they get the flights' obstacle feed (exact
+    /// positions at 5 Hz) and fly the simulator's clock (stopped while planning).
     #[arg(long, value_delimiter = ',')]
     pub compare: Vec<String>,
 
@@ -264,8 +264,10 @@ async fn fly_all(
         let (p, seeds) = (flight.clone(), seeds.to_vec());
         let scores = tokio::task::spawn_blocking(move || {
             let mission = fixture_mission();
+            // The flights' own obstacle feed: every sphere's exact position at 5 Hz.
             let cfg = sim::run::RunConfig {
                 aircraft: p.aircraft,
+                telemetry: judges_feed(),
                 record_track: false,
                 ..sim::run::RunConfig::default()
             };
@@ -461,6 +463,19 @@ pub fn score_table(rows: &[(String, Vec<(u64, FlightScore)>)]) -> String {
         ));
     }
     out
+}
+
+/// The obstacle telemetry the flights get, as the simulator's parameters: each sphere's
+/// exact position (the judges' server computes it from the tour) every `POST_EVERY` steps
+/// (5 Hz), none lost (`jink simulate --obstacle-rate-hz 5 --obstacle-noise-m 0
+/// --obstacle-dropout 0`).
+pub fn judges_feed() -> sim::telemetry::TelemetryParams {
+    sim::telemetry::TelemetryParams {
+        rate_hz: 1.0 / (STEP_S * POST_EVERY as f64),
+        noise_sigma_m: 0.0,
+        dropout_prob: 0.0,
+        lead_in_s: 0.0,
+    }
 }
 
 /// The embedded Webster Field mission, read as `jink simulate --mission` reads the fixture.
@@ -903,6 +918,26 @@ mod tests {
             row,
             "| jink | 3 | 1 | 2 (5) | 1 | 39 / 42 | 1.200 / 1.200 | 300.0 | 2.0 |"
         );
+    }
+
+    #[test]
+    fn the_comparisons_feed_is_the_flights_exact_positions_at_5_hz() {
+        let s = scenario(&webster(), 2, 4, 18.0);
+        let streams = sim::telemetry::sample_streams(&s, &judges_feed());
+        for (sphere, stream) in s.spheres.iter().zip(&streams) {
+            // Every 0.2 s from take-off, none lost, each at the sphere's true position
+            // (what `obstacle_snapshot` posts at those moments).
+            assert!(
+                stream.len() as f64 >= s.duration_s * 5.0 - 1.0,
+                "{}",
+                stream.len()
+            );
+            for (k, o) in stream.iter().take(100).enumerate() {
+                assert!((o.t_s - k as f64 * 0.2).abs() < 1e-9, "{k}: {}", o.t_s);
+                let truth = sphere.track.at(o.t_s);
+                assert!((0..3).all(|i| (o.p_m[i] - truth[i]).abs() < 1e-9), "{k}");
+            }
+        }
     }
 
     #[test]

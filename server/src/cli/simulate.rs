@@ -120,6 +120,20 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 0.0)]
     pub lead_in_s: f64,
 
+    /// Obstacle telemetry samples per second (the judges' server answers each poll with
+    /// every sphere's exact position; a team polls it at 5 Hz or so).
+    #[arg(long, default_value_t = 2.0)]
+    pub obstacle_rate_hz: f64,
+
+    /// Standard deviation of the noise on each coordinate of an obstacle sample, metres
+    /// (the judges' server sends exact positions: 0).
+    #[arg(long, default_value_t = 1.0)]
+    pub obstacle_noise_m: f64,
+
+    /// Probability that an obstacle sample is lost.
+    #[arg(long, default_value_t = 0.05)]
+    pub obstacle_dropout: f64,
+
     /// Also write the prediction report (stages vs constant velocity per behaviour) over
     /// this many seeds per behaviour (0 = skip).
     #[arg(long, default_value_t = 0)]
@@ -227,6 +241,15 @@ pub fn run(args: SimulateArgs) -> ExitCode {
             "m",
         ),
         ("--lead-in-s", args.lead_in_s, 0.0, 3600.0, "s"),
+        ("--obstacle-rate-hz", args.obstacle_rate_hz, 0.2, 50.0, "Hz"),
+        ("--obstacle-noise-m", args.obstacle_noise_m, 0.0, 50.0, "m"),
+        (
+            "--obstacle-dropout",
+            args.obstacle_dropout,
+            0.0,
+            0.9,
+            "(a probability)",
+        ),
     ] {
         if !(v.is_finite() && (lo..=hi).contains(&v)) {
             eprintln!("jink simulate: {flag} must be in [{lo}, {hi}] {unit}");
@@ -253,6 +276,9 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         position_m: args.own_position_noise_m,
     };
     cfg.run.telemetry.lead_in_s = args.lead_in_s;
+    cfg.run.telemetry.rate_hz = args.obstacle_rate_hz;
+    cfg.run.telemetry.noise_sigma_m = args.obstacle_noise_m;
+    cfg.run.telemetry.dropout_prob = args.obstacle_dropout;
     let cfg = cfg;
     let make = |family: Family, seed: u64| -> Scenario {
         match &mission {

@@ -3,7 +3,7 @@
 //! requests); it must fly as the planner called in-process does, or the simulator's tables
 //! would not measure the pipeline `jink serve` runs.
 
-use serde_json::Value;
+use serde_json::{Value, json};
 
 /// `jink simulate ARGS --out OUT`, the real binary.
 fn simulate(args: &[&str], out: &std::path::Path) -> std::process::Output {
@@ -112,6 +112,9 @@ fn a_simulated_aircraft_flag_out_of_range_is_refused_naming_the_flag() {
         ("--max-bank-deg", "80", "[10, 70] degrees"),
         ("--acceptance-radius", "0.5", "[1, 500] m"),
         ("--l1-period", "NaN", "[5, 60] s"),
+        ("--obstacle-rate-hz", "0", "[0.2, 50] Hz"),
+        ("--obstacle-noise-m", "60", "[0, 50] m"),
+        ("--obstacle-dropout", "1", "[0, 0.9] (a probability)"),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let out = simulate(
@@ -127,4 +130,42 @@ fn a_simulated_aircraft_flag_out_of_range_is_refused_naming_the_flag() {
         // Nothing was simulated.
         assert!(!dir.path().join("report.json").exists(), "{flag}");
     }
+}
+
+#[test]
+fn the_obstacle_feed_flags_reach_the_runs_and_the_report() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = simulate(
+        &[
+            "--family",
+            "mixed",
+            "--seeds",
+            "1",
+            "--strategies",
+            "none",
+            "--no-plot",
+            "--quiet",
+            "--obstacle-rate-hz",
+            "5",
+            "--obstacle-noise-m",
+            "0",
+            "--obstacle-dropout",
+            "0",
+        ],
+        dir.path(),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap())
+            .unwrap();
+    let t = &report["config"]["run"]["telemetry"];
+    assert_eq!(
+        (&t["rate_hz"], &t["noise_sigma_m"], &t["dropout_prob"]),
+        (&json!(5.0), &json!(0.0), &json!(0.0)),
+        "{report}"
+    );
 }
