@@ -391,6 +391,52 @@ fn a_map_built_from_layers_of_other_maps_equals_a_one_thread_build_bit_for_bit()
 }
 
 #[test]
+fn a_map_fed_layers_from_a_helper_map_holds_no_more_memory_rebuild_after_rebuild() {
+    // As the live map is built (server/src/live/helper.rs): each rebuild resets the map,
+    // splats some obstacles itself and takes the others' parts from a helper's map.
+    let mut p = Predictor::new(PredictorConfig::default());
+    feed(&mut p, "a", Behaviour::Uniform { w: 0.2 }, 11, [0.0, 0.0]);
+    feed(&mut p, "b", Behaviour::Straight, 12, [150.0, 50.0]);
+    feed(
+        &mut p,
+        "c",
+        Behaviour::Biased { w: 0.2 },
+        13,
+        [-150.0, 100.0],
+    );
+    feed(
+        &mut p,
+        "d",
+        Behaviour::Zigzag { w: 0.2 },
+        14,
+        [100.0, -150.0],
+    );
+    let (c, path, t0) = (cfg(), [], 69.5);
+    let mut main = predictor::RiskMap::new(c.clone(), &path, t0).unwrap();
+    let mut helper = predictor::RiskMap::new(c, &path, t0).unwrap();
+    let mut sizes = Vec::new();
+    for _ in 0..40 {
+        main.reset(&path, t0);
+        helper.reset(&path, t0);
+        for id in ["a", "b"] {
+            p.update_map_obstacle(&mut main, id);
+        }
+        for id in ["c", "d"] {
+            p.update_map_obstacle(&mut helper, id);
+            main.put_layer(helper.take_layer(id).unwrap()).unwrap();
+        }
+        sizes.push(main.heap_bytes());
+    }
+    // Every rebuild holds the same four parts; the allocations kept for the next one
+    // must not pile up (they did: two more spare parts a rebuild, without bound).
+    let (after_2, after_40) = (sizes[1], sizes[39]);
+    assert!(
+        after_40 <= after_2 + after_2 / 4,
+        "{after_2} bytes after 2 rebuilds, {after_40} after 40"
+    );
+}
+
+#[test]
 fn a_map_read_for_an_altitude_band_leaves_out_exactly_the_obstacles_out_of_its_reach() {
     // Three flying obstacles whose clouds overlap near the middle of the grid and a young
     // one (a NoFly disc); each but "c" is given an altitude reach.
