@@ -51,6 +51,7 @@ async fn metrics(State(state): State<AppState>) -> impl IntoResponse {
         )],
         state.metrics.render()
             + &state.interop.render_metrics()
+            + &state.live.render_metrics()
             + &state
                 .store
                 .wal()

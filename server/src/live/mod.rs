@@ -541,6 +541,34 @@ impl LiveStates {
         }
     }
 
+    /// The live state's gauges in the Prometheus text format: missions live, those with a
+    /// published risk map, and the heap those maps and the spare ones hold.
+    pub fn render_metrics(&self) -> String {
+        let all: Vec<Arc<MissionLive>> = lock(&self.missions).values().cloned().collect();
+        let maps: Vec<Arc<predictor::RiskMap>> = all
+            .iter()
+            .filter_map(|l| lock(&l.published).map.clone())
+            .collect();
+        let bytes = maps.iter().map(|m| m.heap_bytes()).sum::<usize>()
+            + lock(&self.spare_maps)
+                .iter()
+                .map(predictor::RiskMap::heap_bytes)
+                .sum::<usize>();
+        format!(
+            "# HELP jink_live_missions Missions whose live state (predictor) is in memory.\n\
+             # TYPE jink_live_missions gauge\n\
+             jink_live_missions {}\n\
+             # HELP jink_live_maps Live missions with a published risk map.\n\
+             # TYPE jink_live_maps gauge\n\
+             jink_live_maps {}\n\
+             # HELP jink_live_map_heap_bytes Heap held by the published risk maps and the spare ones kept for reuse (allocated capacity).\n\
+             # TYPE jink_live_map_heap_bytes gauge\n\
+             jink_live_map_heap_bytes {bytes}\n",
+            all.len(),
+            maps.len(),
+        )
+    }
+
     /// Missions currently live.
     pub fn len(&self) -> usize {
         lock(&self.missions).len()

@@ -16,6 +16,7 @@ both_stores!(
     client_stamped_obstacles_with_receipt_stamped_telemetry_warn_of_the_clock_mismatch,
     a_plan_replays_identically_after_later_batches_and_a_restart,
     a_plan_right_after_a_batch_names_what_its_map_lacked_and_replays_identically,
+    the_metrics_show_the_live_missions_their_maps_and_the_heap_the_maps_hold,
 );
 
 const T0: f64 = 1_700_000_000.0;
@@ -42,6 +43,30 @@ async fn stages(app: &App, id: &str) -> Vec<(String, String)> {
             )
         })
         .collect()
+}
+
+/// The value of the unlabelled gauge `name` in `GET /metrics`.
+async fn gauge(app: &App, name: &str) -> f64 {
+    let text = app.get_text("/metrics", "text/plain").await;
+    text.lines()
+        .find_map(|l| l.strip_prefix(&format!("{name} ")))
+        .unwrap_or_else(|| panic!("no {name} in\n{text}"))
+        .parse()
+        .unwrap()
+}
+
+async fn the_metrics_show_the_live_missions_their_maps_and_the_heap_the_maps_hold(app: App) {
+    let id = webster_flight(&app, 6).await;
+    // Reading the obstacles makes the mission live without a map; a plan builds one.
+    let _ = stages(&app, &id).await;
+    assert_eq!(gauge(&app, "jink_live_missions").await, 1.0);
+    assert_eq!(gauge(&app, "jink_live_maps").await, 0.0);
+    plan(&app, &id, json!({"seed": 3, "current_index": 1})).await;
+    assert_eq!(gauge(&app, "jink_live_maps").await, 1.0);
+    // One map of the mission's 10 m grids over its 30 s horizon (plus at most the spares):
+    // megabytes, not hundreds of them.
+    let bytes = gauge(&app, "jink_live_map_heap_bytes").await;
+    assert!((1e6..40e6).contains(&bytes), "{bytes}");
 }
 
 async fn a_plan_lists_the_obstacles_it_used_with_the_stages_the_operator_sees(app: App) {
