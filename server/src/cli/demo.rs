@@ -166,7 +166,9 @@ async fn demo(args: DemoArgs) -> Result<(), String> {
     let parallel = usize::try_from(args.parallel).unwrap_or(1);
     if let Some(base) = &args.server {
         let base = base.trim_end_matches('/').to_string();
-        return fly_all(&base, &flight, &seeds, parallel, &compare).await;
+        return fly_all(&base, &flight, &seeds, parallel, &compare)
+            .await
+            .map(drop);
     }
     // The database lives in a temporary directory removed at exit.
     let dir = tempfile::Builder::new()
@@ -183,11 +185,15 @@ async fn demo(args: DemoArgs) -> Result<(), String> {
     let local = listener.local_addr().map_err(|e| e.to_string())?;
     let server = tokio::spawn(crate::app::serve_on(listener, state));
     let base = format!("http://{local}");
-    fly_all(&base, &flight, &seeds, parallel, &compare).await?;
+    let flown = fly_all(&base, &flight, &seeds, parallel, &compare).await?;
     if args.exit {
         return Ok(());
     }
-    println!("jink demo: the page stays up at {base}/: press Ctrl-C to stop");
+    let page = match flown.as_slice() {
+        [(_, one)] => format!("{base}/missions/{}", one.mission_id),
+        _ => format!("{base}/"),
+    };
+    println!("jink demo: the page stays up at {page}: press Ctrl-C to stop");
     match server.await {
         Ok(r) => r.map_err(|e| e.to_string()),
         Err(e) => Err(e.to_string()),
@@ -203,7 +209,7 @@ async fn fly_all(
     seeds: &[u64],
     parallel: usize,
     compare: &[StrategyKind],
-) -> Result<(), String> {
+) -> Result<Vec<(u64, FlightSummary)>, String> {
     let started = Instant::now();
     let gate = std::sync::Arc::new(tokio::sync::Semaphore::new(parallel.max(1)));
     let done = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
@@ -249,7 +255,7 @@ async fn fly_all(
     }
     flown.sort_by_key(|(seed, _)| *seed);
     if seeds.len() == 1 && compare.is_empty() {
-        return Ok(());
+        return Ok(flown);
     }
     let client = if flight.bare {
         "jink over HTTP, real time, bare client"
@@ -290,7 +296,7 @@ async fn fly_all(
         ));
     }
     println!("{}", score_table(&rows));
-    Ok(())
+    Ok(flown)
 }
 
 /// What to fly.
