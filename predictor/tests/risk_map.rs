@@ -304,8 +304,9 @@ fn an_invalid_resolution_schedule_is_an_error() {
     ));
 }
 
-#[test]
-fn a_map_built_from_layers_of_other_maps_equals_a_one_thread_build_bit_for_bit() {
+/// A predictor of four flying obstacles "a" to "d", each turning its own way, 150-200 m
+/// apart.
+fn four_flyers() -> Predictor {
     let mut p = Predictor::new(PredictorConfig::default());
     feed(&mut p, "a", Behaviour::Uniform { w: 0.2 }, 11, [0.0, 0.0]);
     feed(&mut p, "b", Behaviour::Straight, 12, [150.0, 50.0]);
@@ -323,6 +324,12 @@ fn a_map_built_from_layers_of_other_maps_equals_a_one_thread_build_bit_for_bit()
         14,
         [100.0, -150.0],
     );
+    p
+}
+
+#[test]
+fn a_map_built_from_layers_of_other_maps_equals_a_one_thread_build_bit_for_bit() {
+    let mut p = four_flyers();
     // Seen once: an analytic NoFly disc, not particles.
     p.observe("e", obs(69.0, [50.0, 50.0], 15.0));
     // The NoFly disc first: the parts moved between maps below are particles.
@@ -394,23 +401,7 @@ fn a_map_built_from_layers_of_other_maps_equals_a_one_thread_build_bit_for_bit()
 fn a_map_fed_layers_from_a_helper_map_holds_no_more_memory_rebuild_after_rebuild() {
     // As the live map is built (server/src/live/helper.rs): each rebuild resets the map,
     // splats some obstacles itself and takes the others' parts from a helper's map.
-    let mut p = Predictor::new(PredictorConfig::default());
-    feed(&mut p, "a", Behaviour::Uniform { w: 0.2 }, 11, [0.0, 0.0]);
-    feed(&mut p, "b", Behaviour::Straight, 12, [150.0, 50.0]);
-    feed(
-        &mut p,
-        "c",
-        Behaviour::Biased { w: 0.2 },
-        13,
-        [-150.0, 100.0],
-    );
-    feed(
-        &mut p,
-        "d",
-        Behaviour::Zigzag { w: 0.2 },
-        14,
-        [100.0, -150.0],
-    );
+    let mut p = four_flyers();
     let (c, path, t0) = (cfg(), [], 69.5);
     let mut main = predictor::RiskMap::new(c.clone(), &path, t0).unwrap();
     let mut helper = predictor::RiskMap::new(c, &path, t0).unwrap();
