@@ -10,8 +10,9 @@
 //!   `/api/obstacles` form, feet) at 5 Hz each, the interop rates;
 //! - asks for a plan at 1 Hz (`base_revision` = the revision it flies, `current_index` =
 //!   the item it flies toward, seed derived from `--seed`) and installs each new revision
-//!   on the simulated autopilot (`sim::aircraft::Autopilot`, L1 guidance), skipping as many
-//!   items as the aircraft reached while the plan was computed (else it would turn back).
+//!   on the simulated autopilot (`sim::aircraft::Autopilot`, L1 guidance), past the last
+//!   item the aircraft reached while the plan was computed when the new stack holds it
+//!   ([`resume_index`]; else it would turn back).
 //!
 //! `--server URL` flies against a service already running (the browser test does, so that
 //! it can restart that service under the page) instead of starting one.
@@ -717,12 +718,9 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                         plan.revision, plan.outcome, plan.compute_ms, plan.added
                     );
                     let mut next = stack_from_plan(&plan, &frame);
-                    // Items the aircraft reached while the plan was computed are behind it:
-                    // skip as many in the new stack rather than turn back for them.
-                    let reached = stack
-                        .current
-                        .saturating_sub(asked_at.unwrap_or(stack.current));
-                    next.current = (next.current + reached).min(next.items.len());
+                    // Items the aircraft reached while the plan was computed are behind it.
+                    let from = asked_at.unwrap_or(stack.current).min(stack.current);
+                    next.current = resume_index(&next, &stack.items[from..stack.current]);
                     ap.replace_stack(&mut stack, next);
                 }
                 Ok(_) => {}
@@ -763,6 +761,31 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
             });
         }
     }
+}
+
+/// Where to fly a new stack `next` from, when the aircraft reached `reached` (in order)
+/// while it was computed: just past the last of them if `next` holds it at or after its
+/// own current item (a mission waypoint by its index, another item by its position within
+/// 1 m), since everything before it is behind the aircraft; else `next`'s own current
+/// item. It skips nothing but what lies behind an item the aircraft reached: counting the
+/// items reached and skipping as many (as the demo did before) could skip a detour the plan
+/// had just put first, once plans took long enough for the aircraft to reach items
+/// meanwhile.
+pub fn resume_index(next: &Stack, reached: &[StackItem]) -> usize {
+    let Some(last) = reached.last() else {
+        return next.current;
+    };
+    let same = |a: &StackItem| match (a.mission_index, last.mission_index) {
+        (Some(i), Some(j)) => i == j,
+        (None, None) => a.kind == last.kind && sim::geometry::dist(a.p_m, last.p_m) <= 1.0,
+        _ => false,
+    };
+    next.items
+        .iter()
+        .enumerate()
+        .skip(next.current)
+        .find(|(_, a)| same(a))
+        .map_or(next.current, |(j, _)| j + 1)
 }
 
 /// Posts `body` without waiting for the answer; failures are counted.
@@ -944,6 +967,33 @@ mod tests {
                 assert!((0..3).all(|i| (o.p_m[i] - truth[i]).abs() < 1e-9), "{k}");
             }
         }
+    }
+
+    #[test]
+    fn a_new_stack_is_flown_past_the_last_item_reached_meanwhile_and_never_past_a_new_detour() {
+        let m = |i: usize, x: f64| StackItem::mission(i, [x, 0.0], 60.0);
+        let avoid = |x: f64, y: f64| StackItem {
+            p_m: [x, y],
+            alt_m: 60.0,
+            kind: ItemKind::Avoid,
+            mission_index: None,
+        };
+        let stack = |items: Vec<StackItem>, current| Stack { items, current };
+        // Mission waypoint 3 reached while the plan (a detour first, then 3 and 4) was
+        // computed: fly on to 4.
+        let next = stack(vec![avoid(50.0, 80.0), m(3, 100.0), m(4, 200.0)], 0);
+        assert_eq!(resume_index(&next, &[m(3, 100.0)]), 2);
+        // The plan put a detour before waypoint 4 and the aircraft reached an old avoid
+        // item meanwhile: nothing skipped (counting would have skipped the detour).
+        let next = stack(vec![avoid(150.0, -60.0), m(4, 200.0)], 0);
+        assert_eq!(resume_index(&next, &[avoid(80.0, 40.0)]), 0);
+        // An avoid item reached is found by its position, and nothing reached changes
+        // nothing.
+        let next = stack(vec![m(2, 0.0), avoid(80.0, 40.0), m(3, 100.0)], 1);
+        assert_eq!(resume_index(&next, &[avoid(80.3, 40.2)]), 2);
+        assert_eq!(resume_index(&next, &[]), 1);
+        // Items before the new stack's own current one are not looked at.
+        assert_eq!(resume_index(&next, &[m(2, 0.0)]), 1);
     }
 
     #[test]
