@@ -24,6 +24,17 @@ pub fn straight_length_m(m: &Mission, start_m: [f64; 3]) -> f64 {
     total
 }
 
+/// Path flown over the straight route from `start_m` through the waypoints
+/// ([`straight_length_m`]): the judges' path ratio; 1 for a mission of no length.
+pub fn path_ratio(m: &Mission, start_m: [f64; 3], path_m: f64) -> f64 {
+    let straight = straight_length_m(m, start_m);
+    if straight > 0.0 {
+        path_m / straight
+    } else {
+        1.0
+    }
+}
+
 /// The stack of the mission's own waypoints, flying toward the first.
 pub fn initial_stack(m: &Mission) -> Stack {
     Stack {

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use crate::aircraft::{AircraftParams, AircraftState, Autopilot, SteerOverride};
 use crate::geometry::xy;
 use crate::lidar::{cross_sections, scan};
-use crate::mission::{ItemKind, initial_stack, straight_length_m};
+use crate::mission::{ItemKind, initial_stack, path_ratio};
 use crate::scenario::Scenario;
 use crate::scoring::{JudgeReport, judge};
 use crate::strategy::{Command, StrategyKind, View};
@@ -339,7 +339,6 @@ pub fn run_with_streams(
         judge_tel.push((ap.state.t_s, ap.state.p_m));
     }
     let jr = judge(&judge_tel, scenario, m);
-    let straight = straight_length_m(m, scenario.start_m);
     let metrics = RunMetrics {
         sphere_score: jr.sphere_score,
         cylinder_score: jr.cylinder_score,
@@ -352,11 +351,7 @@ pub fn run_with_streams(
         completed: stack.target().is_none(),
         mission_time_s: ap.state.t_s,
         path_length_m: path_len,
-        path_ratio: if straight > 0.0 {
-            path_len / straight
-        } else {
-            1.0
-        },
+        path_ratio: path_ratio(m, scenario.start_m, path_len),
         min_clearance_m: jr.min_clearance_m,
         waypoints_added: added,
         avoid_targets,

@@ -35,7 +35,7 @@ use std::time::{Duration, Instant};
 use clap::Args;
 use serde_json::{Value, json};
 use sim::aircraft::{AircraftParams, Autopilot};
-use sim::mission::{ItemKind, Stack, StackItem, initial_stack, straight_length_m};
+use sim::mission::{ItemKind, Stack, StackItem, initial_stack, path_ratio};
 use sim::scenario::{Family, Scenario, with_moving_spheres};
 use sim::strategy::StrategyKind;
 
@@ -138,14 +138,10 @@ pub fn run(args: DemoArgs) -> ExitCode {
 }
 
 async fn demo(args: DemoArgs) -> Result<(), String> {
-    for (flag, v, lo, hi, unit) in [
-        ("--aircraft-speed", args.aircraft_speed, 5.0, 100.0, "m/s"),
-        ("--max-bank-deg", args.max_bank_deg, 10.0, 70.0, "degrees"),
-    ] {
-        if !(v.is_finite() && (lo..=hi).contains(&v)) {
-            return Err(format!("{flag} must be in [{lo}, {hi}] {unit}"));
-        }
-    }
+    super::check_ranges(&[
+        super::aircraft_speed_flag(args.aircraft_speed),
+        super::max_bank_flag(args.max_bank_deg),
+    ])?;
     let mut compare = Vec::new();
     for name in &args.compare {
         match StrategyKind::parse(name) {
@@ -380,17 +376,12 @@ impl FlightScore {
     pub fn judge(scenario: &Scenario, track: &[(f64, [f64; 3])], path_m: f64) -> Self {
         let m = &scenario.mission;
         let jr = sim::scoring::judge(track, scenario, m);
-        let straight = straight_length_m(m, scenario.start_m);
         Self {
             sphere_hits: jr.sphere_hits.iter().filter(|h| **h).count(),
             cylinder_hits: jr.cylinder_hits.iter().filter(|h| **h).count(),
             waypoints_captured: jr.waypoints_captured.iter().filter(|h| **h).count(),
             waypoints: jr.waypoints_captured.len(),
-            path_ratio: if straight > 0.0 {
-                path_m / straight
-            } else {
-                1.0
-            },
+            path_ratio: path_ratio(m, scenario.start_m, path_m),
             min_clearance_m: jr.min_clearance_m,
             out_of_zone_s: jr.boundary_violation_s,
             time_s: track.last().map_or(0.0, |p| p.0),
@@ -883,7 +874,7 @@ mod tests {
     #[test]
     fn a_flight_is_judged_against_the_spheres_true_positions() {
         let s = scenario(&webster(), 5, 3, 20.0);
-        let straight = straight_length_m(&s.mission, s.start_m);
+        let straight = sim::mission::straight_length_m(&s.mission, s.start_m);
         // Ten seconds sitting in sphere 1's centre as it moves: a hit of that sphere only
         // (the others are elsewhere at those moments, checked below against the truth).
         let inside: Vec<(f64, [f64; 3])> = (0..=50)

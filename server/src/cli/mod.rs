@@ -66,6 +66,30 @@ pub fn run() -> ExitCode {
     }
 }
 
+/// A flag's value, the range it must be in and its unit: `(flag, value, lo, hi, unit)`.
+type FlagRange<'a> = (&'a str, f64, f64, f64, &'a str);
+
+/// The simulated aircraft's speed flag (`--aircraft-speed`) with its accepted range, m/s.
+fn aircraft_speed_flag(v: f64) -> FlagRange<'static> {
+    ("--aircraft-speed", v, 5.0, 100.0, "m/s")
+}
+
+/// The simulated aircraft's bank flag (`--max-bank-deg`) with its accepted range, degrees.
+fn max_bank_flag(v: f64) -> FlagRange<'static> {
+    ("--max-bank-deg", v, 10.0, 70.0, "degrees")
+}
+
+/// The first flag whose value is not finite or out of its range, as
+/// `"FLAG must be in [LO, HI] UNIT"`.
+fn check_ranges(flags: &[FlagRange<'_>]) -> Result<(), String> {
+    for &(flag, v, lo, hi, unit) in flags {
+        if !(v.is_finite() && (lo..=hi).contains(&v)) {
+            return Err(format!("{flag} must be in [{lo}, {hi}] {unit}"));
+        }
+    }
+    Ok(())
+}
+
 /// Builds the async runtime `builder` describes (with I/O and timers), or says on stderr
 /// why it cannot.
 fn runtime(mut builder: tokio::runtime::Builder) -> Option<tokio::runtime::Runtime> {

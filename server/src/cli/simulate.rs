@@ -214,10 +214,10 @@ pub fn run(args: SimulateArgs) -> ExitCode {
             .num_threads(n)
             .build_global();
     }
-    // The simulated aircraft's flags: value, accepted range, unit.
-    for (flag, v, lo, hi, unit) in [
-        ("--aircraft-speed", args.aircraft_speed, 5.0, 100.0, "m/s"),
-        ("--max-bank-deg", args.max_bank_deg, 10.0, 70.0, "degrees"),
+    // The simulated aircraft's and feed's flags: value, accepted range, unit.
+    if let Err(e) = super::check_ranges(&[
+        super::aircraft_speed_flag(args.aircraft_speed),
+        super::max_bank_flag(args.max_bank_deg),
         (
             "--acceptance-radius",
             args.acceptance_radius,
@@ -250,11 +250,9 @@ pub fn run(args: SimulateArgs) -> ExitCode {
             0.9,
             "(a probability)",
         ),
-    ] {
-        if !(v.is_finite() && (lo..=hi).contains(&v)) {
-            eprintln!("jink simulate: {flag} must be in [{lo}, {hi}] {unit}");
-            return ExitCode::FAILURE;
-        }
+    ]) {
+        eprintln!("jink simulate: {e}");
+        return ExitCode::FAILURE;
     }
     let mut cfg = SuiteConfig {
         families,
