@@ -401,7 +401,7 @@ fn a_map_built_from_layers_of_other_maps_equals_a_one_thread_build_bit_for_bit()
 fn a_map_fed_layers_from_a_helper_map_holds_no_more_memory_rebuild_after_rebuild() {
     // As the live map is built (server/src/live/helper.rs): each rebuild resets the map,
     // splats some obstacles itself and takes the others' parts from a helper's map.
-    let mut p = four_flyers();
+    let p = four_flyers();
     let (c, path, t0) = (cfg(), [], 69.5);
     let mut main = predictor::RiskMap::new(c.clone(), &path, t0).unwrap();
     let mut helper = predictor::RiskMap::new(c, &path, t0).unwrap();
