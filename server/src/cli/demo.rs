@@ -326,6 +326,9 @@ pub struct FlightSummary {
     pub waypoints: (usize, usize),
     /// Requests that failed (the service was unreachable or refused).
     pub failed_requests: u64,
+    /// Why they failed: a reason (`plan 409`, `obstacles: timed out`, ...) and how often,
+    /// in the reasons' order.
+    pub failures: Vec<(String, u64)>,
     /// The flight scored as the judges score it.
     pub score: FlightScore,
     /// Plan requests' round trips, milliseconds: p50 and p95.
@@ -336,12 +339,13 @@ impl std::fmt::Display for FlightSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{:.0} s flown, waypoint {}/{}, plan revision {}, {} failed requests, plan round trip p50 {:.1} ms p95 {:.1} ms; judged: {}",
+            "{:.0} s flown, waypoint {}/{}, plan revision {}, {} failed requests{}, plan round trip p50 {:.1} ms p95 {:.1} ms; judged: {}",
             self.flown_s,
             self.waypoints.0,
             self.waypoints.1,
             self.revision,
             self.failed_requests,
+            failure_reasons(&self.failures),
             self.plan_ms.0,
             self.plan_ms.1,
             self.score
@@ -362,6 +366,9 @@ pub struct FlightScore {
     pub waypoints: usize,
     /// Path flown over the straight route through the waypoints.
     pub path_ratio: f64,
+    /// Whether the flight flew its whole stack (not cut by `--duration` or the time
+    /// limit): its path ratio is shown only then, a cut flight's says nothing.
+    pub finished: bool,
     /// Closest approach to any obstacle's surface, metres (negative: inside).
     pub min_clearance_m: f64,
     /// Seconds outside the fly zone.
@@ -372,8 +379,13 @@ pub struct FlightScore {
 
 impl FlightScore {
     /// Scores a flight of `scenario`: the aircraft's true positions `track` (time, ENU and
-    /// MSL) and the length of its path `path_m`.
-    pub fn judge(scenario: &Scenario, track: &[(f64, [f64; 3])], path_m: f64) -> Self {
+    /// MSL), the length of its path `path_m` and whether it flew its whole stack.
+    pub fn judge(
+        scenario: &Scenario,
+        track: &[(f64, [f64; 3])],
+        path_m: f64,
+        finished: bool,
+    ) -> Self {
         let m = &scenario.mission;
         let jr = sim::scoring::judge(track, scenario, m);
         Self {
@@ -382,6 +394,7 @@ impl FlightScore {
             waypoints_captured: jr.waypoints_captured.iter().filter(|h| **h).count(),
             waypoints: jr.waypoints_captured.len(),
             path_ratio: path_ratio(m, scenario.start_m, path_m),
+            finished,
             min_clearance_m: jr.min_clearance_m,
             out_of_zone_s: jr.boundary_violation_s,
             time_s: track.last().map_or(0.0, |p| p.0),
@@ -396,6 +409,7 @@ impl FlightScore {
             waypoints_captured: m.waypoints_captured,
             waypoints: m.waypoints,
             path_ratio: m.path_ratio,
+            finished: m.completed,
             min_clearance_m: m.min_clearance_m,
             out_of_zone_s: m.boundary_violation_s,
             time_s: m.mission_time_s,
@@ -407,12 +421,16 @@ impl std::fmt::Display for FlightScore {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} spheres and {} cylinders hit, {}/{} waypoints captured, path ratio {:.3}, {:.1} s out of the fly zone, closest {:.1} m",
+            "{} spheres and {} cylinders hit, {}/{} waypoints captured, path ratio {}, {:.1} s out of the fly zone, closest {:.1} m",
             self.sphere_hits,
             self.cylinder_hits,
             self.waypoints_captured,
             self.waypoints,
-            self.path_ratio,
+            if self.finished {
+                format!("{:.3}", self.path_ratio)
+            } else {
+                "- (not finished)".to_string()
+            },
             self.out_of_zone_s,
             self.min_clearance_m
         )
@@ -420,8 +438,8 @@ impl std::fmt::Display for FlightScore {
 }
 
 /// A markdown table of judged flights, one row per client: flights, clean ones, sphere
-/// hits (with the seeds that took them), cylinder hits, waypoints, path ratio mean / p50,
-/// mean time, time out of the fly zone.
+/// hits (with the seeds that took them), cylinder hits, waypoints, path ratio mean / p50
+/// (of the flights that finished; `-` when none did), mean time, time out of the fly zone.
 pub fn score_table(rows: &[(String, Vec<(u64, FlightScore)>)]) -> String {
     let mut out = String::from(
         "| client | flights | clean | sphere hits (seeds) | cylinder hits | waypoints | path ratio mean / p50 | mean time (s) | out of the fly zone (s a flight) |\n|---|---:|---:|---|---:|---:|---|---:|---:|\n",
@@ -438,10 +456,23 @@ pub fn score_table(rows: &[(String, Vec<(u64, FlightScore)>)]) -> String {
             .filter(|(_, s)| s.sphere_hits > 0)
             .map(|(seed, _)| seed.to_string())
             .collect();
-        let ratios: Vec<f64> = flights.iter().map(|(_, s)| s.path_ratio).collect();
+        let ratios: Vec<f64> = flights
+            .iter()
+            .filter(|(_, s)| s.finished)
+            .map(|(_, s)| s.path_ratio)
+            .collect();
+        let ratio = if ratios.is_empty() {
+            "-".to_string()
+        } else {
+            format!(
+                "{:.3} / {:.3}",
+                ratios.iter().sum::<f64>() / ratios.len() as f64,
+                sim::run::percentile(&ratios, 0.5)
+            )
+        };
         let sum = |f: fn(&FlightScore) -> f64| flights.iter().map(|(_, s)| f(s)).sum::<f64>();
         out.push_str(&format!(
-            "| {name} | {} | {clean} | {hits}{} | {} | {} / {} | {:.3} / {:.3} | {:.1} | {:.1} |\n",
+            "| {name} | {} | {clean} | {hits}{} | {} | {} / {} | {ratio} | {:.1} | {:.1} |\n",
             flights.len(),
             if hit_seeds.is_empty() {
                 String::new()
@@ -454,8 +485,6 @@ pub fn score_table(rows: &[(String, Vec<(u64, FlightScore)>)]) -> String {
                 .map(|(_, s)| s.waypoints_captured)
                 .sum::<usize>(),
             flights.iter().map(|(_, s)| s.waypoints).sum::<usize>(),
-            sum(|s| s.path_ratio) / n,
-            sim::run::percentile(&ratios, 0.5),
             sum(|s| s.time_s) / n,
             sum(|s| s.out_of_zone_s) / n,
         ));
@@ -627,8 +656,8 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
         started,
         last: None,
     };
-    let failed = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(0));
-    let (plan_tx, mut plan_rx) = tokio::sync::mpsc::channel::<Result<PlanOut, String>>(2);
+    let failed = Failures::default();
+    let (plan_tx, mut plan_rx) = tokio::sync::mpsc::channel::<Result<PlanOut, PlanFailure>>(2);
     // The stack item the aircraft flew toward when the plan in flight was asked for.
     let mut plan_in_flight: Option<usize> = None;
     let mut revision = 0_i64;
@@ -660,12 +689,14 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                     &client,
                     format!("{base}/api/v1/missions/{id}/telemetry"),
                     telemetry,
+                    "telemetry",
                     &failed,
                 );
                 post_detached(
                     &client,
                     format!("{base}/api/v1/missions/{id}/obstacles?time={t_s}"),
                     snapshot,
+                    "obstacles",
                     &failed,
                 );
             }
@@ -716,8 +747,8 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                 }
                 Ok(_) => {}
                 Err(e) => {
-                    failed.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                    last_plan = format!("plan failed: {e}");
+                    failed.count(format!("plan {}", e.reason));
+                    last_plan = format!("plan failed: {}", e.detail);
                 }
             }
         }
@@ -729,7 +760,7 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
             progress.show(|| {
                 format!(
                     "waypoint {passed}/{total_wp}, {last_plan}, {} failed requests",
-                    failed.load(std::sync::atomic::Ordering::Relaxed)
+                    failed.total()
                 )
             });
         }
@@ -743,8 +774,9 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                 flown_s: elapsed,
                 revision,
                 waypoints: (passed, total_wp),
-                failed_requests: failed.load(std::sync::atomic::Ordering::Relaxed),
-                score: FlightScore::judge(&scenario, &judged, path_m),
+                failed_requests: failed.total(),
+                failures: failed.reasons(),
+                score: FlightScore::judge(&scenario, &judged, path_m, stack.target().is_none()),
                 plan_ms: (
                     sim::run::percentile(&times, 0.5),
                     sim::run::percentile(&times, 0.95),
@@ -784,38 +816,102 @@ fn post_detached(
     client: &reqwest::Client,
     url: String,
     body: Value,
-    failed: &std::sync::Arc<std::sync::atomic::AtomicU64>,
+    what: &'static str,
+    failed: &Failures,
 ) {
     let (client, failed) = (client.clone(), failed.clone());
     tokio::spawn(async move {
-        let ok = client
-            .post(url)
-            .json(&body)
-            .send()
-            .await
-            .is_ok_and(|r| r.status().is_success());
-        if !ok {
-            failed.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        match client.post(url).json(&body).send().await {
+            Ok(r) if r.status().is_success() => {}
+            Ok(r) => failed.count(format!("{what} {}", r.status().as_u16())),
+            Err(e) => failed.count(format!("{what}: {}", error_kind(&e))),
         }
     });
+}
+
+/// Failed requests of one flight, counted by reason (shared with the detached posts).
+#[derive(Debug, Clone, Default)]
+struct Failures(std::sync::Arc<std::sync::Mutex<std::collections::BTreeMap<String, u64>>>);
+
+impl Failures {
+    fn count(&self, reason: String) {
+        if let Ok(mut m) = self.0.lock() {
+            *m.entry(reason).or_default() += 1;
+        }
+    }
+
+    fn total(&self) -> u64 {
+        self.0.lock().map_or(0, |m| m.values().sum())
+    }
+
+    fn reasons(&self) -> Vec<(String, u64)> {
+        self.0
+            .lock()
+            .map(|m| m.iter().map(|(k, v)| (k.clone(), *v)).collect())
+            .unwrap_or_default()
+    }
+}
+
+/// ` (plan 409 x1, obstacles: timed out x2)`, or nothing without failures.
+fn failure_reasons(failures: &[(String, u64)]) -> String {
+    if failures.is_empty() {
+        return String::new();
+    }
+    let each: Vec<String> = failures.iter().map(|(r, n)| format!("{r} x{n}")).collect();
+    format!(" ({})", each.join(", "))
+}
+
+/// A client error in a few words: what went wrong, not the URL.
+fn error_kind(e: &reqwest::Error) -> &'static str {
+    if e.is_timeout() {
+        "timed out"
+    } else if e.is_connect() {
+        "could not connect"
+    } else if e.is_body() || e.is_decode() {
+        "bad answer body"
+    } else {
+        "connection failed"
+    }
+}
+
+/// Why a plan request failed: a short reason (the HTTP status, or the kind of client
+/// error) to count, and the whole message to show.
+#[derive(Debug)]
+struct PlanFailure {
+    reason: String,
+    detail: String,
+}
+
+impl PlanFailure {
+    fn client(e: &reqwest::Error) -> Self {
+        Self {
+            reason: error_kind(e).to_string(),
+            detail: e.to_string(),
+        }
+    }
 }
 
 async fn request_plan(
     client: &reqwest::Client,
     url: &str,
     body: &Value,
-) -> Result<PlanOut, String> {
+) -> Result<PlanOut, PlanFailure> {
     let r = client
         .post(url)
         .json(body)
         .send()
         .await
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| PlanFailure::client(&e))?;
     let status = r.status();
     if !status.is_success() {
-        return Err(format!("{status}: {}", r.text().await.unwrap_or_default()));
+        return Err(PlanFailure {
+            reason: status.as_u16().to_string(),
+            detail: format!("{status}: {}", r.text().await.unwrap_or_default()),
+        });
     }
-    r.json::<PlanOut>().await.map_err(|e| e.to_string())
+    r.json::<PlanOut>()
+        .await
+        .map_err(|e| PlanFailure::client(&e))
 }
 
 #[cfg(test)]
@@ -824,6 +920,22 @@ mod tests {
 
     fn webster() -> Mission {
         wire::domain::read_mission_text(MISSION_JSON, "demo").expect("the embedded fixture")
+    }
+
+    #[test]
+    fn failed_requests_are_counted_by_reason_across_clones() {
+        let f = Failures::default();
+        assert_eq!(failure_reasons(&f.reasons()), "");
+        // A detached post counts through its own clone.
+        let post = f.clone();
+        post.count("obstacles: timed out".into());
+        f.count("plan 409".into());
+        f.count("plan 409".into());
+        assert_eq!(f.total(), 3);
+        assert_eq!(
+            failure_reasons(&f.reasons()),
+            " (obstacles: timed out x1, plan 409 x2)"
+        );
     }
 
     #[test]
@@ -891,7 +1003,7 @@ mod tests {
                 d > s.spheres[i].radius_m
             })
         });
-        let hit = FlightScore::judge(&s, &inside, 2.0 * straight);
+        let hit = FlightScore::judge(&s, &inside, 2.0 * straight, true);
         assert!(others_clear, "the test's track must meet sphere 1 alone");
         assert_eq!(hit.sphere_hits, 1, "{hit}");
         assert!(hit.min_clearance_m < 0.0, "{hit}");
@@ -906,7 +1018,7 @@ mod tests {
             .enumerate()
             .map(|(k, w)| (k as f64 * 20.0, [w.p_m[0], w.p_m[1], w.alt_m]))
             .collect();
-        let v = FlightScore::judge(&s, &visits, straight);
+        let v = FlightScore::judge(&s, &visits, straight, true);
         assert_eq!(
             (v.waypoints_captured, v.waypoints),
             (s.mission.waypoints.len(), s.mission.waypoints.len())
@@ -921,6 +1033,7 @@ mod tests {
             waypoints_captured: 13,
             waypoints: 14,
             path_ratio: ratio,
+            finished: true,
             min_clearance_m: 3.0,
             out_of_zone_s: 2.0,
             time_s: 300.0,
@@ -937,6 +1050,28 @@ mod tests {
         assert_eq!(
             row,
             "| jink | 3 | 1 | 2 (5) | 1 | 39 / 42 | 1.200 / 1.200 | 300.0 | 2.0 |"
+        );
+        // A flight cut before its stack's end (`--duration`) has flown part of the route:
+        // its path ratio is left out of the column and not shown.
+        let cut = FlightScore {
+            finished: false,
+            ..score(0, 0, 0.4)
+        };
+        assert!(
+            cut.to_string().contains("path ratio - (not finished)"),
+            "{cut}"
+        );
+        let t = score_table(&[
+            ("jink".into(), vec![(4, score(0, 0, 1.1)), (5, cut)]),
+            ("cut".into(), vec![(5, cut)]),
+        ]);
+        let rows: Vec<&str> = t.lines().skip(2).collect();
+        assert_eq!(
+            rows,
+            [
+                "| jink | 2 | 2 | 0 | 0 | 26 / 28 | 1.100 / 1.100 | 300.0 | 2.0 |",
+                "| cut | 1 | 1 | 0 | 0 | 13 / 14 | - | 300.0 | 2.0 |"
+            ]
         );
     }
 

@@ -56,6 +56,8 @@ fn judged_flights_in_real_time_print_each_score_and_a_table_beside_the_oracle() 
             line.contains(", 0 failed requests,") && line.contains("; judged: "),
             "{line}"
         );
+        // 8 s is a small part of the mission: no path ratio for a flight cut short.
+        assert!(line.contains("path ratio - (not finished)"), "{line}");
     }
     let http = row(&stdout, "jink over HTTP, real time");
     let oracle = row(&stdout, "`oracle` (in process, same scenarios)");
@@ -66,6 +68,7 @@ fn judged_flights_in_real_time_print_each_score_and_a_table_beside_the_oracle() 
         let mean_s: f64 = r[7].parse().unwrap();
         assert!((7.5..=9.5).contains(&mean_s), "{r:?}");
         assert!(r[5].ends_with("/ 28"), "{r:?}");
+        assert_eq!(r[6], "-", "flights cut short have no path ratio: {r:?}");
     }
 }
 
