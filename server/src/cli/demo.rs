@@ -324,10 +324,8 @@ pub struct FlightSummary {
     pub revision: i64,
     /// Mission waypoints passed / total.
     pub waypoints: (usize, usize),
-    /// Requests that failed (the service was unreachable or refused).
-    pub failed_requests: u64,
-    /// Why they failed: a reason (`plan 409`, `obstacles: timed out`, ...) and how often,
-    /// in the reasons' order.
+    /// Requests that failed (the service was unreachable or refused): a reason (`plan
+    /// 409`, `obstacles: timed out`, ...) and how often, in the reasons' order.
     pub failures: Vec<(String, u64)>,
     /// The flight scored as the judges score it.
     pub score: FlightScore,
@@ -344,12 +342,19 @@ impl std::fmt::Display for FlightSummary {
             self.waypoints.0,
             self.waypoints.1,
             self.revision,
-            self.failed_requests,
+            self.failed_requests(),
             failure_reasons(&self.failures),
             self.plan_ms.0,
             self.plan_ms.1,
             self.score
         )
+    }
+}
+
+impl FlightSummary {
+    /// How many requests failed, whatever the reason.
+    pub fn failed_requests(&self) -> u64 {
+        self.failures.iter().map(|(_, n)| n).sum()
     }
 }
 
@@ -774,7 +779,6 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                 flown_s: elapsed,
                 revision,
                 waypoints: (passed, total_wp),
-                failed_requests: failed.total(),
                 failures: failed.reasons(),
                 score: FlightScore::judge(&scenario, &judged, path_m, stack.target().is_none()),
                 plan_ms: (
