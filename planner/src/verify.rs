@@ -366,6 +366,22 @@ impl Verification {
         danger_risk: f64,
         polyline_done: bool,
     ) -> bool {
+        self.cannot_beat_at_length(rival, safe_risk, danger_risk, polyline_done, 0.0)
+    }
+
+    /// [`Verification::cannot_beat`] for a route whose whole polyline is known to be
+    /// `length_m` long: the length the ranking reads at the end is at least that (plus the
+    /// outside penalty so far), whatever has been flown yet. A candidate that ties the
+    /// rival on every figure so far and is longer then loses at once, instead of at the
+    /// end of its polyline. `0` is no knowledge (the length flown so far).
+    pub fn cannot_beat_at_length(
+        &self,
+        rival: &Verification,
+        safe_risk: f64,
+        danger_risk: f64,
+        polyline_done: bool,
+        length_m: f64,
+    ) -> bool {
         use std::cmp::Ordering::{Equal, Greater, Less};
         let tol = 1e-9;
         // Each step: Greater, the final figure is surely worse (lost); Less, it may be
@@ -449,7 +465,9 @@ impl Verification {
                 Equal => {}
             },
         }
-        self.ranked_length_m() >= rival.ranked_length_m() - tol
+        self.ranked_length_m()
+            .max(length_m + self.outside_penalty_m)
+            >= rival.ranked_length_m() - tol
     }
 }
 
@@ -501,6 +519,7 @@ impl Progress {
 pub trait EnvAt<'e>: Fn(f64) -> LegEnv<'e> {}
 impl<'e, F: Fn(f64) -> LegEnv<'e>> EnvAt<'e> for F {}
 
+#[derive(Clone)]
 struct Acc<'a> {
     out: Verification,
     safe_risk: f64,
@@ -656,8 +675,21 @@ pub fn verify_route_to_beat<'e>(
     params: &VerifyParams,
     rival: Option<Rival<'_>>,
 ) -> Option<Verification> {
+    // The polyline's whole length, summed as the pass below sums it: the length the
+    // verification ends with (Verification::cannot_beat_at_length).
+    let polyline_m = {
+        let mut prev = state.p_m;
+        let mut sum = 0.0;
+        for it in tail {
+            sum += dist(prev, it.p_m);
+            prev = it.p_m;
+        }
+        sum
+    };
     let lost = |v: &Verification, polyline_done: bool| {
-        rival.is_some_and(|r| v.cannot_beat(r.best, safe_risk, r.danger_risk, polyline_done))
+        rival.is_some_and(|r| {
+            v.cannot_beat_at_length(r.best, safe_risk, r.danger_risk, polyline_done, polyline_m)
+        })
     };
     let env0 = env_at(state.alt_m).in_band([state.alt_m, state.alt_m]);
     let bands = leg_bands(state.p_m, state.alt_m, tail, speed_mps);
@@ -685,6 +717,56 @@ pub fn verify_route_to_beat<'e>(
     // Where the aircraft is now counts too (nothing can change it, but it is real risk).
     acc.cylinders(state.alt_m, state.p_m, state.t_s, 0.0);
     acc.risk(&env0, state.p_m, state.t_s, state.t_s);
+    let guidances = [
+        Guidance::Pursuit,
+        Guidance::L1 {
+            // At most twice the turn radius: a longer L1 never commands the full bank
+            // (its lateral acceleration 2 V^2 / L1 stays under V^2 / R), and an autopilot
+            // tuned for the aircraft flies a tighter one.
+            l1_m: (params.l1_s * speed_mps).min(2.0 * turn_radius_m),
+            acceptance_m: params.acceptance_m,
+            // An autopilot that switches at up to the judges' 100 ft captures where it
+            // switches: counting that a miss would make every waypoint look missed.
+            capture_m: params
+                .capture_m
+                .max(params.acceptance_m.min(JUDGE_CAPTURE_M)),
+        },
+    ];
+    // In danger (the rival's near-term peak above the danger risk) routes are ranked by
+    // their near window first, and the flown path's part of it comes after the whole
+    // polyline: a candidate that loses there was checked to its last item before it lost
+    // (issue 9: among a young track's no-fly discs every route is in danger, and the
+    // safety net's 155 candidates each cost a whole route). So once the polyline has
+    // passed the near window, the flown paths are flown through it on a copy: every
+    // figure of that copy is where the full verification's will be or below (the near
+    // window's sums come in the same order; no cylinder is counted, the polyline's so far
+    // standing for its count), so when the copy cannot beat the rival, the route cannot.
+    let near_window_loses = |acc: &Acc<'_>| {
+        let mut probe = acc.clone();
+        probe.hit.iter_mut().for_each(|h| *h = true);
+        for guidance in guidances {
+            fly(
+                &mut probe,
+                env_at,
+                state,
+                tail,
+                &bands,
+                speed_mps,
+                turn_radius_m,
+                step,
+                horizon_end.min(near_end_s),
+                guidance,
+                delay_credit_s,
+                params.outside_weight,
+                &|v| lost(v, false),
+            );
+            if lost(&probe.out, false) {
+                return true;
+            }
+        }
+        false
+    };
+    let mut probed = !rival.is_some_and(|r| r.best.near_peak_risk > r.danger_risk);
     // The polyline, on its own clock.
     let (mut prev, mut prev_alt, mut t) = (state.p_m, state.alt_m, state.t_s);
     let mut progress = Progress::new(state, speed_mps, delay_credit_s);
@@ -723,6 +805,12 @@ pub fn verify_route_to_beat<'e>(
         if lost(&acc.out, false) {
             return None;
         }
+        if !probed && t > near_end_s && turn_radius_m > 0.0 {
+            probed = true;
+            if near_window_loses(&acc) {
+                return None;
+            }
+        }
     }
 
     acc.out.polyline_cylinder_hits = acc.out.cylinder_hits;
@@ -739,21 +827,7 @@ pub fn verify_route_to_beat<'e>(
             acc.out.conflict = Some(Conflict::Unreachable { item: 0 });
         }
     }
-    for guidance in [
-        Guidance::Pursuit,
-        Guidance::L1 {
-            // At most twice the turn radius: a longer L1 never commands the full bank
-            // (its lateral acceleration 2 V^2 / L1 stays under V^2 / R), and an autopilot
-            // tuned for the aircraft flies a tighter one.
-            l1_m: (params.l1_s * speed_mps).min(2.0 * turn_radius_m),
-            acceptance_m: params.acceptance_m,
-            // An autopilot that switches at up to the judges' 100 ft captures where it
-            // switches: counting that a miss would make every waypoint look missed.
-            capture_m: params
-                .capture_m
-                .max(params.acceptance_m.min(JUDGE_CAPTURE_M)),
-        },
-    ] {
+    for guidance in guidances {
         if lost(&acc.out, true) {
             return None;
         }
@@ -1268,6 +1342,59 @@ mod tests {
             };
             let va = verify_route(&env_at, &s, &ta, 20.0, 40.0, 0.05, &p);
             let vb = verify_route(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p);
+            let rival = Rival { best: &va, danger_risk: danger };
+            match verify_route_to_beat(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p, Some(rival)) {
+                None => proptest::prop_assert!(!vb.better_than(&va, 0.05, danger), "{vb:?} beats {va:?}"),
+                Some(v) => proptest::prop_assert_eq!(v, vb),
+            }
+        }
+
+        /// The same when every route is in danger from the start (the aircraft inside a
+        /// young track's no-fly disc, as at a flight's first plan): a candidate stopped once
+        /// its flown near window is checked would have lost in full.
+        #[test]
+        fn in_danger_a_route_stopped_after_its_near_window_would_have_lost(
+            big in (-100.0..100.0f64, -100.0..100.0f64, 150.0..900.0f64, 0.3..1.0f64),
+            discs in proptest::collection::vec(
+                (-800.0..800.0f64, -800.0..800.0f64, -30.0..30.0f64, -30.0..30.0f64, 10.0..300.0f64, 0.01..1.0f64),
+                0..4,
+            ),
+            a in proptest::collection::vec((-900.0..900.0f64, -900.0..900.0f64, proptest::bool::ANY), 1..8),
+            b in proptest::collection::vec((-900.0..900.0f64, -900.0..900.0f64, proptest::bool::ANY), 1..8),
+            heading in 0.0..360.0f64,
+            spent in proptest::bool::ANY,
+        ) {
+            let mut all = vec![(big.0, big.1, 0.0, 0.0, big.2, big.3)];
+            all.extend(discs);
+            let field = Discs(all);
+            let zones = Zones::new(&[crate::mission::FlyZone {
+                boundary_m: vec![[-800.0, -800.0], [800.0, -800.0], [800.0, 800.0], [-800.0, 800.0]],
+                alt_min_m: 0.0,
+                alt_max_m: 1000.0,
+            }]);
+            let env_at = env_check(&field, &zones, &[]);
+            let tail = |pts: &[(f64, f64, bool)]| -> Vec<StackItem> {
+                pts.iter()
+                    .enumerate()
+                    .map(|(i, &(x, y, fixed))| {
+                        if fixed {
+                            StackItem::mission(i, [x, y], 100.0)
+                        } else {
+                            StackItem::avoid([x, y], 100.0)
+                        }
+                    })
+                    .collect()
+            };
+            let (ta, tb) = (tail(&a), tail(&b));
+            let s = state(heading);
+            let p = VerifyParams {
+                delay_credit_s: if spent { 0.0 } else { 60.0 },
+                ..VerifyParams::default()
+            };
+            let danger = 0.25;
+            let va = verify_route(&env_at, &s, &ta, 20.0, 40.0, 0.05, &p);
+            let vb = verify_route(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p);
+            proptest::prop_assume!(va.near_peak_risk > danger);
             let rival = Rival { best: &va, danger_risk: danger };
             match verify_route_to_beat(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p, Some(rival)) {
                 None => proptest::prop_assert!(!vb.better_than(&va, 0.05, danger), "{vb:?} beats {va:?}"),
