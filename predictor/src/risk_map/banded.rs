@@ -117,7 +117,7 @@ impl RiskMap {
         let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
         let fy = (p_m[1] - self.cfg.min_m[1]) * g.inv_cell;
         let cell = (fx >= 0.0 && fy >= 0.0)
-            .then(|| (fx as usize, fy as usize))
+            .then_some((fx as usize, fy as usize))
             .filter(|&(ix, iy)| ix < g.nx && iy < g.ny)
             .map(|(ix, iy)| (iy * g.nx + ix) as u32);
         let mut q = 1.0f64;
