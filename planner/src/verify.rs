@@ -1289,6 +1289,72 @@ mod tests {
         }
     }
 
+    /// Routes `a` and `b` (points `(x, y, fixed)` at 100 m) in a square zone of 1.6 km
+    /// with `field` and `cylinders`: `b` verified against `a` as its rival either stops
+    /// early (and then would have lost in full) or comes back verified exactly as in full.
+    /// With `in_danger`, only cases where `a` is in danger count. The delay credit spent
+    /// reads the polyline past the horizon too; `outside_weight` ranks the flight out of
+    /// the zone (the square's corners reach past it).
+    #[allow(clippy::too_many_arguments)]
+    fn stopped_early_agrees(
+        field: Discs,
+        cylinders: &[Cylinder],
+        a: &[(f64, f64, bool)],
+        b: &[(f64, f64, bool)],
+        heading: f64,
+        danger: f64,
+        spent: bool,
+        outside_weight: f64,
+        in_danger: bool,
+    ) -> Result<(), proptest::test_runner::TestCaseError> {
+        let zones = Zones::new(&[crate::mission::FlyZone {
+            boundary_m: vec![
+                [-800.0, -800.0],
+                [800.0, -800.0],
+                [800.0, 800.0],
+                [-800.0, 800.0],
+            ],
+            alt_min_m: 0.0,
+            alt_max_m: 1000.0,
+        }]);
+        let env_at = env_check(&field, &zones, cylinders);
+        let tail = |pts: &[(f64, f64, bool)]| -> Vec<StackItem> {
+            pts.iter()
+                .enumerate()
+                .map(|(i, &(x, y, fixed))| {
+                    if fixed {
+                        StackItem::mission(i, [x, y], 100.0)
+                    } else {
+                        StackItem::avoid([x, y], 100.0)
+                    }
+                })
+                .collect()
+        };
+        let (ta, tb) = (tail(a), tail(b));
+        let s = state(heading);
+        let p = VerifyParams {
+            delay_credit_s: if spent { 0.0 } else { 60.0 },
+            outside_weight,
+            ..VerifyParams::default()
+        };
+        let va = verify_route(&env_at, &s, &ta, 20.0, 40.0, 0.05, &p);
+        let vb = verify_route(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p);
+        if in_danger {
+            proptest::prop_assume!(va.near_peak_risk > danger);
+        }
+        let rival = Rival {
+            best: &va,
+            danger_risk: danger,
+        };
+        match verify_route_to_beat(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p, Some(rival)) {
+            None => {
+                proptest::prop_assert!(!vb.better_than(&va, 0.05, danger), "{vb:?} beats {va:?}")
+            }
+            Some(v) => proptest::prop_assert_eq!(v, vb),
+        }
+        Ok(())
+    }
+
     proptest::proptest! {
         /// Stopping a candidate once it cannot beat the best so far never changes which
         /// candidate wins: a stopped one would have lost in full, and one not stopped gets
@@ -1311,42 +1377,7 @@ mod tests {
                 .iter()
                 .map(|&(x, y, r)| Cylinder { center_m: [x, y], radius_m: r, top_m: 500.0 })
                 .collect();
-            let field = Discs(discs);
-            let zones = Zones::new(&[crate::mission::FlyZone {
-                boundary_m: vec![[-800.0, -800.0], [800.0, -800.0], [800.0, 800.0], [-800.0, 800.0]],
-                alt_min_m: 0.0,
-                alt_max_m: 1000.0,
-            }]);
-            let env_at = env_check(&field, &zones, &cylinders);
-            let tail = |pts: &[(f64, f64, bool)]| -> Vec<StackItem> {
-                pts.iter()
-                    .enumerate()
-                    .map(|(i, &(x, y, fixed))| {
-                        if fixed {
-                            StackItem::mission(i, [x, y], 100.0)
-                        } else {
-                            StackItem::avoid([x, y], 100.0)
-                        }
-                    })
-                    .collect()
-            };
-            let (ta, tb) = (tail(&a), tail(&b));
-            let s = state(heading);
-            // With the delay credit spent the polyline is read past the horizon too.
-            // The route's flight out of the zone (the square's corners reach past it) is
-            // ranked too when it is weighted.
-            let p = VerifyParams {
-                delay_credit_s: if spent { 0.0 } else { 60.0 },
-                outside_weight,
-                ..VerifyParams::default()
-            };
-            let va = verify_route(&env_at, &s, &ta, 20.0, 40.0, 0.05, &p);
-            let vb = verify_route(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p);
-            let rival = Rival { best: &va, danger_risk: danger };
-            match verify_route_to_beat(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p, Some(rival)) {
-                None => proptest::prop_assert!(!vb.better_than(&va, 0.05, danger), "{vb:?} beats {va:?}"),
-                Some(v) => proptest::prop_assert_eq!(v, vb),
-            }
+            stopped_early_agrees(Discs(discs), &cylinders, &a, &b, heading, danger, spent, outside_weight, false)?;
         }
 
         /// The same when every route is in danger from the start (the aircraft inside a
@@ -1366,40 +1397,7 @@ mod tests {
         ) {
             let mut all = vec![(big.0, big.1, 0.0, 0.0, big.2, big.3)];
             all.extend(discs);
-            let field = Discs(all);
-            let zones = Zones::new(&[crate::mission::FlyZone {
-                boundary_m: vec![[-800.0, -800.0], [800.0, -800.0], [800.0, 800.0], [-800.0, 800.0]],
-                alt_min_m: 0.0,
-                alt_max_m: 1000.0,
-            }]);
-            let env_at = env_check(&field, &zones, &[]);
-            let tail = |pts: &[(f64, f64, bool)]| -> Vec<StackItem> {
-                pts.iter()
-                    .enumerate()
-                    .map(|(i, &(x, y, fixed))| {
-                        if fixed {
-                            StackItem::mission(i, [x, y], 100.0)
-                        } else {
-                            StackItem::avoid([x, y], 100.0)
-                        }
-                    })
-                    .collect()
-            };
-            let (ta, tb) = (tail(&a), tail(&b));
-            let s = state(heading);
-            let p = VerifyParams {
-                delay_credit_s: if spent { 0.0 } else { 60.0 },
-                ..VerifyParams::default()
-            };
-            let danger = 0.25;
-            let va = verify_route(&env_at, &s, &ta, 20.0, 40.0, 0.05, &p);
-            let vb = verify_route(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p);
-            proptest::prop_assume!(va.near_peak_risk > danger);
-            let rival = Rival { best: &va, danger_risk: danger };
-            match verify_route_to_beat(&env_at, &s, &tb, 20.0, 40.0, 0.05, &p, Some(rival)) {
-                None => proptest::prop_assert!(!vb.better_than(&va, 0.05, danger), "{vb:?} beats {va:?}"),
-                Some(v) => proptest::prop_assert_eq!(v, vb),
-            }
+            stopped_early_agrees(Discs(all), &[], &a, &b, heading, 0.25, spent, 0.0, true)?;
         }
     }
 
@@ -1495,6 +1493,58 @@ mod tests {
             verify_route_to_beat(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p, rival(&vd)),
             Some(vs)
         );
+    }
+
+    /// No risk anywhere; counts the reads.
+    struct CountedNoRisk(std::sync::atomic::AtomicUsize);
+    impl RiskField for CountedNoRisk {
+        fn risk(&self, _p: [f64; 2], _t: f64) -> f64 {
+            self.0.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            0.0
+        }
+    }
+
+    #[test]
+    fn a_clear_route_known_to_be_longer_stops_at_its_first_item_and_a_shorter_one_by_a_hair_does_not()
+     {
+        // Two clear routes 1000 m and 1007.2 m long: the ranking reads length last, and the
+        // whole polyline's length is known before any of it is checked.
+        let field = CountedNoRisk(std::sync::atomic::AtomicUsize::new(0));
+        let reads = || field.0.load(std::sync::atomic::Ordering::Relaxed);
+        let zones = Zones::default();
+        let env_at = env_check(&field, &zones, &[]);
+        let s = state(0.0);
+        let p = VerifyParams::default();
+        let straight = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
+        let kinked = [
+            StackItem::avoid([60.0, 500.0], 100.0),
+            StackItem::mission(0, [0.0, 1000.0], 100.0),
+        ];
+        let (vs, vk) = (
+            verify_route(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p),
+            verify_route(&env_at, &s, &kinked, 20.0, 40.0, 0.05, &p),
+        );
+        assert!((vk.length_m - vs.length_m - 7.2).abs() < 0.1, "{vk:?}");
+        let rival = |best| {
+            Some(Rival {
+                best,
+                danger_risk: 0.5,
+            })
+        };
+        // The shorter one is verified in full, though only 0.7% shorter.
+        assert_eq!(
+            verify_route_to_beat(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p, rival(&vk)),
+            Some(vs)
+        );
+        // The longer one stops after its first leg (about 168 reads of 3 m), not after its
+        // polyline's second (about 336).
+        let before = reads();
+        assert_eq!(
+            verify_route_to_beat(&env_at, &s, &kinked, 20.0, 40.0, 0.05, &p, rival(&vs)),
+            None
+        );
+        let spent = reads() - before;
+        assert!((160..200).contains(&spent), "{spent} reads");
     }
 
     /// Risk 1 inside a disc of radius 10 m moving east at 10 m/s from (-200, 500) at t = 0.
