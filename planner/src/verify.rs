@@ -741,25 +741,29 @@ pub fn verify_route_to_beat<'e>(
     // figure of that copy is where the full verification's will be or below (the near
     // window's sums come in the same order; no cylinder is counted, the polyline's so far
     // standing for its count), so when the copy cannot beat the rival, the route cannot.
+    // The flown path of `guidance` until `until_s`, stopping once it is lost.
+    let fly_until = |acc: &mut Acc<'_>, guidance: Guidance, until_s: f64, polyline_done: bool| {
+        fly(
+            acc,
+            env_at,
+            state,
+            tail,
+            &bands,
+            speed_mps,
+            turn_radius_m,
+            step,
+            until_s,
+            guidance,
+            delay_credit_s,
+            params.outside_weight,
+            &|v| lost(v, polyline_done),
+        );
+    };
     let near_window_loses = |acc: &Acc<'_>| {
         let mut probe = acc.clone();
         probe.hit.iter_mut().for_each(|h| *h = true);
         for guidance in guidances {
-            fly(
-                &mut probe,
-                env_at,
-                state,
-                tail,
-                &bands,
-                speed_mps,
-                turn_radius_m,
-                step,
-                horizon_end.min(near_end_s),
-                guidance,
-                delay_credit_s,
-                params.outside_weight,
-                &|v| lost(v, false),
-            );
+            fly_until(&mut probe, guidance, horizon_end.min(near_end_s), false);
             if lost(&probe.out, false) {
                 return true;
             }
@@ -831,21 +835,7 @@ pub fn verify_route_to_beat<'e>(
         if lost(&acc.out, true) {
             return None;
         }
-        fly(
-            &mut acc,
-            env_at,
-            state,
-            tail,
-            &bands,
-            speed_mps,
-            turn_radius_m,
-            step,
-            horizon_end,
-            guidance,
-            delay_credit_s,
-            params.outside_weight,
-            &|v| lost(v, true),
-        );
+        fly_until(&mut acc, guidance, horizon_end, true);
     }
     if lost(&acc.out, true) {
         return None;
@@ -1464,37 +1454,6 @@ mod tests {
         assert_eq!(VerifyParams::default().outside_weight, 0.0);
     }
 
-    #[test]
-    fn a_longer_clear_route_is_stopped_before_its_flight_and_a_shorter_one_is_not() {
-        let zones = Zones::default();
-        let env_at = env_check(&NoRisk, &zones, &[]);
-        let s = state(0.0);
-        let p = VerifyParams::default();
-        let straight = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
-        let dogleg = [
-            StackItem::avoid([300.0, 500.0], 100.0),
-            StackItem::mission(0, [0.0, 1000.0], 100.0),
-        ];
-        let (vs, vd) = (
-            verify_route(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p),
-            verify_route(&env_at, &s, &dogleg, 20.0, 40.0, 0.05, &p),
-        );
-        let rival = |best| {
-            Some(Rival {
-                best,
-                danger_risk: 0.5,
-            })
-        };
-        assert_eq!(
-            verify_route_to_beat(&env_at, &s, &dogleg, 20.0, 40.0, 0.05, &p, rival(&vs)),
-            None
-        );
-        assert_eq!(
-            verify_route_to_beat(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p, rival(&vd)),
-            Some(vs)
-        );
-    }
-
     /// No risk anywhere; counts the reads.
     struct CountedNoRisk(std::sync::atomic::AtomicUsize);
     impl RiskField for CountedNoRisk {
@@ -1505,44 +1464,38 @@ mod tests {
     }
 
     #[test]
-    fn a_clear_route_known_to_be_longer_stops_at_its_first_item_and_a_shorter_one_by_a_hair_does_not()
-     {
-        // Two clear routes 1000 m and 1007.2 m long: the ranking reads length last, and the
-        // whole polyline's length is known before any of it is checked.
+    fn a_longer_clear_route_is_stopped_before_its_flight_and_a_shorter_one_is_not() {
+        // Clear routes of 1000 m (straight), 1007.2 m (kinked) and 1166 m (dogleg): the
+        // ranking reads length last, and a polyline's whole length is known before any of
+        // it is checked.
         let field = CountedNoRisk(std::sync::atomic::AtomicUsize::new(0));
         let reads = || field.0.load(std::sync::atomic::Ordering::Relaxed);
         let zones = Zones::default();
         let env_at = env_check(&field, &zones, &[]);
         let s = state(0.0);
         let p = VerifyParams::default();
-        let straight = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
-        let kinked = [
-            StackItem::avoid([60.0, 500.0], 100.0),
-            StackItem::mission(0, [0.0, 1000.0], 100.0),
-        ];
-        let (vs, vk) = (
-            verify_route(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p),
-            verify_route(&env_at, &s, &kinked, 20.0, 40.0, 0.05, &p),
-        );
+        let wp = StackItem::mission(0, [0.0, 1000.0], 100.0);
+        let straight = [wp];
+        let kinked = [StackItem::avoid([60.0, 500.0], 100.0), wp];
+        let dogleg = [StackItem::avoid([300.0, 500.0], 100.0), wp];
+        let full = |tail: &[StackItem]| verify_route(&env_at, &s, tail, 20.0, 40.0, 0.05, &p);
+        let (vs, vk, vd) = (full(&straight), full(&kinked), full(&dogleg));
         assert!((vk.length_m - vs.length_m - 7.2).abs() < 0.1, "{vk:?}");
-        let rival = |best| {
-            Some(Rival {
+        let against = |tail: &[StackItem], best| {
+            let rival = Rival {
                 best,
                 danger_risk: 0.5,
-            })
+            };
+            verify_route_to_beat(&env_at, &s, tail, 20.0, 40.0, 0.05, &p, Some(rival))
         };
-        // The shorter one is verified in full, though only 0.7% shorter.
-        assert_eq!(
-            verify_route_to_beat(&env_at, &s, &straight, 20.0, 40.0, 0.05, &p, rival(&vk)),
-            Some(vs)
-        );
+        assert_eq!(against(&dogleg, &vs), None);
+        // The shorter one is verified in full, even when only 0.7% shorter.
+        assert_eq!(against(&straight, &vd), Some(vs));
+        assert_eq!(against(&straight, &vk), Some(vs));
         // The longer one stops after its first leg (about 168 reads of 3 m), not after its
         // polyline's second (about 336).
         let before = reads();
-        assert_eq!(
-            verify_route_to_beat(&env_at, &s, &kinked, 20.0, 40.0, 0.05, &p, rival(&vs)),
-            None
-        );
+        assert_eq!(against(&kinked, &vs), None);
         let spent = reads() - before;
         assert!((160..200).contains(&spent), "{spent} reads");
     }
