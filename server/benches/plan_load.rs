@@ -21,8 +21,9 @@
 //! waypoint's). `JINK_PLAN_FLY=0` holds it at the first waypoint instead (the benchmark
 //! before 2026-11-28): the spheres then circle past an aircraft that never gets away, so
 //! half the plans find no clear route and run the safety net, which takes several times as
-//! long. Each phase prints its plans by outcome with their `compute_ms`, and where the
-//! aircraft is.
+//! long. Each phase prints its plans by outcome with their `compute_ms`, its slowest plan
+//! (which is its p99 at 20 plans: number, outcome, round trip and `Server-Timing`), and
+//! where the aircraft is.
 
 mod support;
 
@@ -205,6 +206,9 @@ struct Phase {
     /// finds no clear route tries the safety net's detours and escapes too, so it computes
     /// longer.
     plan_outcomes: std::collections::BTreeMap<String, Vec<f64>>,
+    /// The slowest plan's round trip (ms), its number in the phase (from 1), outcome,
+    /// `compute_ms` and `Server-Timing`: what the phase's p99 is, with 20 plans a phase.
+    slowest: Option<(f64, usize, String, f64, String)>,
     ingest_ms: Vec<f64>,
     /// The server's `Server-Timing` phases of each ingest, by name.
     ingest_phases: std::collections::BTreeMap<String, Vec<f64>>,
@@ -229,6 +233,7 @@ async fn fly(
         plan_phases: std::collections::BTreeMap::new(),
         plans_lagging: 0,
         plan_outcomes: std::collections::BTreeMap::new(),
+        slowest: None,
         ingest_ms: Vec::new(),
         ingest_phases: std::collections::BTreeMap::new(),
         cpu_s: 0.0,
@@ -286,6 +291,16 @@ async fn fly(
                 f.follow(&v);
             }
             let compute_ms = v["compute_ms"].as_f64().unwrap();
+            let rt = *ph.plan_rt_ms.last().unwrap();
+            if ph.slowest.as_ref().is_none_or(|w| rt > w.0) {
+                ph.slowest = Some((
+                    rt,
+                    ph.plan_rt_ms.len(),
+                    v["outcome"].as_str().unwrap_or("?").to_string(),
+                    compute_ms,
+                    timing.clone(),
+                ));
+            }
             ph.plan_compute_ms.push(compute_ms);
             ph.plan_outcomes
                 .entry(v["outcome"].as_str().unwrap_or("?").to_string())
@@ -365,6 +380,12 @@ fn main() {
                     ph.plans_lagging,
                     ph.plan_rt_ms.len()
                 );
+                if let Some((rt, k, outcome, compute_ms, timing)) = &ph.slowest {
+                    println!(
+                        "    slowest plan: number {k} of {}, {outcome}, round trip {rt:.2} ms, compute_ms {compute_ms:.2}; Server-Timing {timing}",
+                        ph.plan_rt_ms.len()
+                    );
+                }
                 println!(
                     "    plan outcomes (compute_ms p50/p99): {}",
                     ph.plan_outcomes
