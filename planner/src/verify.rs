@@ -732,15 +732,6 @@ pub fn verify_route_to_beat<'e>(
                 .max(params.acceptance_m.min(JUDGE_CAPTURE_M)),
         },
     ];
-    // In danger (the rival's near-term peak above the danger risk) routes are ranked by
-    // their near window first, and the flown path's part of it comes after the whole
-    // polyline: a candidate that loses there was checked to its last item before it lost
-    // (issue 9: among a young track's no-fly discs every route is in danger, and the
-    // safety net's 155 candidates each cost a whole route). So once the polyline has
-    // passed the near window, the flown paths are flown through it on a copy: every
-    // figure of that copy is where the full verification's will be or below (the near
-    // window's sums come in the same order; no cylinder is counted, the polyline's so far
-    // standing for its count), so when the copy cannot beat the rival, the route cannot.
     // The flown path of `guidance` until `until_s`, stopping once it is lost.
     let fly_until = |acc: &mut Acc<'_>, guidance: Guidance, until_s: f64, polyline_done: bool| {
         fly(
@@ -759,6 +750,15 @@ pub fn verify_route_to_beat<'e>(
             &|v| lost(v, polyline_done),
         );
     };
+    // In danger (the rival's near-term peak above the danger risk) routes are ranked by
+    // their near window first, and the flown path's part of it comes after the whole
+    // polyline: a candidate that loses there was checked to its last item before it lost
+    // (issue 9: among a young track's no-fly discs every route is in danger, and the
+    // safety net's candidates each cost a whole route). So once the polyline has
+    // passed the near window, the flown paths are flown through it on a copy: every
+    // figure of that copy is where the full verification's will be or below (the near
+    // window's sums come in the same order; no cylinder is counted, the polyline's so far
+    // standing for its count), so when the copy cannot beat the rival, the route cannot.
     let near_window_loses = |acc: &Acc<'_>| {
         let mut probe = acc.clone();
         probe.hit.iter_mut().for_each(|h| *h = true);
