@@ -16,6 +16,13 @@
 //! for company), so a quiet mission's latency is a single transaction as before. The task
 //! runs on the database writer's runtime ([`super::writer`]).
 //!
+//! A lone observation batch does not go through the task at all: when no request is queued
+//! or being stored ([`GroupCommit::try_lone`]), the request's own task stores it, the same
+//! script as a group of one ([`Store::commit_script`]). That skips two of the four thread
+//! hand-offs (to the writer's runtime and back), the most of a flight's ingest time that was
+//! not SQLite's own. Requests arriving meanwhile queue for the task as before, which waits
+//! for the connection; the contracts below hold either way.
+//!
 //! Plans go through the same queue: the plans of a group are stored after its ingest, by
 //! one multi-row insert ([`Store::commit_plans`]), so they share one commit. Each plan is
 //! several pages (its row, its inputs and answer, two index entries), and under a flood of
@@ -36,6 +43,8 @@
 //!   each had been its own transaction.
 
 use std::collections::{HashMap, HashSet};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 use sqlx::{AssertSqlSafe, Row};
 use tokio::sync::{mpsc, oneshot};
@@ -125,6 +134,22 @@ enum Job {
 #[derive(Debug, Clone)]
 pub struct GroupCommit {
     tx: mpsc::Sender<Job>,
+    /// Requests sent to the task and not yet answered, plus lone writes in flight.
+    outstanding: Arc<AtomicUsize>,
+    /// Batches stored as lone writes, without the task.
+    lone: Arc<AtomicU64>,
+}
+
+/// A lone write in flight ([`GroupCommit::try_lone`]): while it lives, every other write
+/// goes through the task.
+pub struct LoneWrite<'a> {
+    outstanding: &'a AtomicUsize,
+}
+
+impl Drop for LoneWrite<'_> {
+    fn drop(&mut self) {
+        self.outstanding.fetch_sub(1, Ordering::AcqRel);
+    }
 }
 
 impl GroupCommit {
@@ -133,11 +158,38 @@ impl GroupCommit {
     pub fn spawn(store: Store, on: &WriterThread) -> Self {
         let (tx, rx) = mpsc::channel(4 * MAX_GROUP);
         on.spawn_task(run(store, rx));
-        Self { tx }
+        Self {
+            tx,
+            outstanding: Arc::new(AtomicUsize::new(0)),
+            lone: Arc::new(AtomicU64::new(0)),
+        }
+    }
+
+    /// The right to store one write directly, when nothing else is queued or being stored
+    /// (`None` otherwise: then [`GroupCommit::submit`]). Counted in
+    /// [`GroupCommit::lone_writes`].
+    pub fn try_lone(&self) -> Option<LoneWrite<'_>> {
+        self.outstanding
+            .compare_exchange(0, 1, Ordering::AcqRel, Ordering::Acquire)
+            .ok()?;
+        self.lone.fetch_add(1, Ordering::Relaxed);
+        Some(LoneWrite {
+            outstanding: &self.outstanding,
+        })
+    }
+
+    /// Writes stored directly so far ([`GroupCommit::try_lone`]).
+    pub fn lone_writes(&self) -> u64 {
+        self.lone.load(Ordering::Relaxed)
     }
 
     async fn send<T>(&self, job: impl FnOnce(Reply<T>) -> Job) -> Option<Result<T, sqlx::Error>> {
         let (reply, answer) = oneshot::channel();
+        self.outstanding.fetch_add(1, Ordering::AcqRel);
+        // Answered, cancelled or failed: no longer outstanding.
+        let _done = LoneWrite {
+            outstanding: &self.outstanding,
+        };
         self.tx.send(job(reply)).await.ok()?;
         answer.await.ok()
     }
@@ -174,6 +226,10 @@ impl GroupCommit {
     /// (the caller then writes directly).
     pub async fn submit_plan(&self, row: &PlanRow) -> Option<Result<(), InsertPlanError>> {
         let (reply, answer) = oneshot::channel();
+        self.outstanding.fetch_add(1, Ordering::AcqRel);
+        let _done = LoneWrite {
+            outstanding: &self.outstanding,
+        };
         let job = Job::Plan(PlanJob {
             row: row.clone(),
             reply,
@@ -1119,6 +1175,10 @@ mod tests {
         }
         seqs.sort_unstable();
         assert_eq!(seqs, (1..=24).collect::<Vec<i64>>());
+        // The first was stored alone, directly; those spawned beside it went through the
+        // queue while it was in flight.
+        let lone = store.lone_writes();
+        assert!((1..24).contains(&lone), "lone writes {lone}");
         // 24 rows of "5", and "6" at 4 distinct times.
         assert_eq!(accepted, 28);
         let rows = store
@@ -1127,6 +1187,42 @@ mod tests {
             .expect("rows");
         assert_eq!(rows.len(), 28);
     }
+    #[tokio::test]
+    async fn a_lone_batch_is_stored_directly_and_one_arriving_beside_it_through_the_queue() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        let insert = |t: f64| {
+            let store = store.clone();
+            async move {
+                store
+                    .insert_observations("webster", &[row("1", t, 38.1)], 10.0)
+                    .await
+                    .expect("insert")
+                    .expect("mission exists")
+            }
+        };
+        assert_eq!(insert(1.0).await.seq, 1);
+        assert_eq!(
+            store.lone_writes(),
+            1,
+            "nothing else outstanding: stored directly"
+        );
+        let group = store.group.clone().expect("SQLite groups");
+        let held = group.try_lone().expect("nothing outstanding");
+        assert!(group.try_lone().is_none(), "one lone write at a time");
+        // Another write in flight: this one goes through the queue.
+        assert_eq!(insert(2.0).await.seq, 2);
+        assert_eq!(store.lone_writes(), 2, "the held right only");
+        drop(held);
+        assert_eq!(insert(3.0).await.seq, 3);
+        assert_eq!(store.lone_writes(), 3);
+        let rows = store
+            .list_observations_through("webster", 0, 3)
+            .await
+            .expect("rows");
+        assert_eq!(rows.len(), 3);
+    }
+
     fn plan(id: &str, mission_id: &str, revision: i64) -> PlanRow {
         PlanRow {
             id: wire::ids::PlanId(id.into()),

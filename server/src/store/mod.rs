@@ -208,6 +208,26 @@ impl Store {
         self.wal.as_deref()
     }
 
+    /// After a lone write ([`group_commit::GroupCommit::try_lone`]): what the group's task
+    /// does when its queue empties, a checkpoint on the write connection when the WAL is
+    /// long and one is due ([`wal::Wal::on_writer_idle`]), on the writer's runtime, so that
+    /// the request that wrote does not wait for it.
+    pub(crate) fn after_lone_write(&self) {
+        if let (Some(wal), Some(writer)) = (&self.wal, &self.writer)
+            && wal.long()
+        {
+            let (wal, pool) = (wal.clone(), self.write.clone());
+            writer.spawn_task(async move { wal.on_writer_idle(&pool).await });
+        }
+    }
+
+    /// Writes stored directly, without the group's task (SQLite; 0 elsewhere).
+    pub fn lone_writes(&self) -> u64 {
+        self.group
+            .as_ref()
+            .map_or(0, group_commit::GroupCommit::lone_writes)
+    }
+
     /// Which database this is.
     pub fn backend(&self) -> Backend {
         self.backend

@@ -98,18 +98,31 @@ impl Store {
         received_at_s: f64,
     ) -> Result<Option<StoredBatch>, sqlx::Error> {
         let writer = crate::auth::writer();
-        if let Some(g) = &self.group
-            && let Some(r) = g.submit(mission_id, rows, received_at_s, &writer).await
-        {
-            return r;
-        }
         let batch = NewBatch {
             mission_id,
             rows,
             received_at_s,
             writer: &writer,
         };
-        Ok(self.commit_batches(&[batch]).await?.pop().flatten())
+        if let Some(g) = &self.group {
+            // Alone: stored here, without the hand-offs to the group's task and back.
+            let one = std::slice::from_ref(&batch);
+            if self.takes_script(one)
+                && let Some(_lone) = g.try_lone()
+            {
+                let r = self.commit_script(one).await.map(|mut v| v.pop().flatten());
+                self.after_lone_write();
+                return r;
+            }
+            if let Some(r) = g.submit(mission_id, rows, received_at_s, &writer).await {
+                return r;
+            }
+        }
+        Ok(self
+            .commit_batches(std::slice::from_ref(&batch))
+            .await?
+            .pop()
+            .flatten())
     }
 
     /// Stores `batches` in one transaction, all or none: per mission (in order of first

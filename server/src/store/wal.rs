@@ -124,6 +124,12 @@ impl Wal {
         self.threshold_frames.store(frames, Ordering::Relaxed);
     }
 
+    /// Whether the WAL held more frames than the writer's threshold at the last
+    /// checkpoint (a writer checkpoint may be due: [`Wal::on_writer_idle`] decides).
+    pub fn long(&self) -> bool {
+        self.frames() > self.threshold_frames.load(Ordering::Relaxed)
+    }
+
     /// Whether the writer should checkpoint now (the WAL is long and the last writer
     /// checkpoint is at least [`WRITER_MIN_INTERVAL`] old); marks the attempt.
     fn writer_due(&self, now: Instant) -> bool {
