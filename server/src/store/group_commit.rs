@@ -140,13 +140,14 @@ pub struct GroupCommit {
     lone: Arc<AtomicU64>,
 }
 
-/// A lone write in flight ([`GroupCommit::try_lone`]): while it lives, every other write
-/// goes through the task.
-pub struct LoneWrite<'a> {
+/// A write counted as outstanding while it lives: a request sent to the task, or a lone
+/// write in flight ([`GroupCommit::try_lone`], while it lives every other write goes
+/// through the task).
+pub struct Outstanding<'a> {
     outstanding: &'a AtomicUsize,
 }
 
-impl Drop for LoneWrite<'_> {
+impl Drop for Outstanding<'_> {
     fn drop(&mut self) {
         self.outstanding.fetch_sub(1, Ordering::AcqRel);
     }
@@ -168,14 +169,22 @@ impl GroupCommit {
     /// The right to store one write directly, when nothing else is queued or being stored
     /// (`None` otherwise: then [`GroupCommit::submit`]). Counted in
     /// [`GroupCommit::lone_writes`].
-    pub fn try_lone(&self) -> Option<LoneWrite<'_>> {
+    pub fn try_lone(&self) -> Option<Outstanding<'_>> {
         self.outstanding
             .compare_exchange(0, 1, Ordering::AcqRel, Ordering::Acquire)
             .ok()?;
         self.lone.fetch_add(1, Ordering::Relaxed);
-        Some(LoneWrite {
+        Some(Outstanding {
             outstanding: &self.outstanding,
         })
+    }
+
+    /// Counts a request sent to the task until it is answered, cancelled or failed.
+    fn enter(&self) -> Outstanding<'_> {
+        self.outstanding.fetch_add(1, Ordering::AcqRel);
+        Outstanding {
+            outstanding: &self.outstanding,
+        }
     }
 
     /// Writes stored directly so far ([`GroupCommit::try_lone`]).
@@ -185,11 +194,7 @@ impl GroupCommit {
 
     async fn send<T>(&self, job: impl FnOnce(Reply<T>) -> Job) -> Option<Result<T, sqlx::Error>> {
         let (reply, answer) = oneshot::channel();
-        self.outstanding.fetch_add(1, Ordering::AcqRel);
-        // Answered, cancelled or failed: no longer outstanding.
-        let _done = LoneWrite {
-            outstanding: &self.outstanding,
-        };
+        let _outstanding = self.enter();
         self.tx.send(job(reply)).await.ok()?;
         answer.await.ok()
     }
@@ -226,10 +231,7 @@ impl GroupCommit {
     /// (the caller then writes directly).
     pub async fn submit_plan(&self, row: &PlanRow) -> Option<Result<(), InsertPlanError>> {
         let (reply, answer) = oneshot::channel();
-        self.outstanding.fetch_add(1, Ordering::AcqRel);
-        let _done = LoneWrite {
-            outstanding: &self.outstanding,
-        };
+        let _outstanding = self.enter();
         let job = Job::Plan(PlanJob {
             row: row.clone(),
             reply,
