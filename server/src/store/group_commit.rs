@@ -63,7 +63,7 @@ pub const MAX_GROUP: usize = 64;
 
 /// Telemetry rows per insert statement (9 parameters each, anonymous placeholders: see
 /// [`super::observations::SQLITE_INSERT_CHUNK_ROWS`]).
-const TELEMETRY_CHUNK_ROWS: usize = super::observations::SQLITE_INSERT_CHUNK_ROWS;
+pub(super) const TELEMETRY_CHUNK_ROWS: usize = super::observations::SQLITE_INSERT_CHUNK_ROWS;
 
 type Reply<T> = oneshot::Sender<Result<T, sqlx::Error>>;
 
@@ -1000,6 +1000,59 @@ mod tests {
                 assert!(sizes[r].iter().sum::<usize>() <= TELEMETRY_CHUNK_ROWS);
             }
         }
+    }
+
+    #[tokio::test]
+    async fn a_lone_telemetry_post_is_stored_directly_and_answers_as_through_the_queue() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let store = store_with_webster(&dir).await;
+        let id = wire::ids::MissionId::from("webster");
+        let insert = |id: wire::ids::MissionId, rows: Vec<TelemetryRow>| {
+            let store = store.clone();
+            async move {
+                store
+                    .insert_telemetry(&id, &rows, 10.0)
+                    .await
+                    .expect("insert")
+            }
+        };
+        let two = vec![sample(1.0, 38.1), sample(2.0, 38.1)];
+        assert_eq!(insert(id.clone(), two.clone()).await, counts(2, 0));
+        assert_eq!(
+            store.lone_writes(),
+            1,
+            "nothing else outstanding: stored directly"
+        );
+        // The same answers as the queue gives: duplicates counted, a missing mission
+        // told apart from a post of duplicates, an empty post.
+        let again = vec![sample(2.0, 38.2), sample(3.0, 38.2)];
+        assert_eq!(insert(id.clone(), again).await, counts(1, 1));
+        assert_eq!(insert(wire::ids::MissionId::from("nope"), two).await, None);
+        assert_eq!(insert(id.clone(), Vec::new()).await, counts(0, 0));
+        assert_eq!(store.lone_writes(), 4);
+        // Another write in flight: through the queue, with the same answer.
+        let group = store.group.clone().expect("SQLite groups");
+        let held = group.try_lone().expect("nothing outstanding");
+        assert_eq!(
+            insert(id.clone(), vec![sample(4.0, 38.3)]).await,
+            counts(1, 0)
+        );
+        assert_eq!(store.lone_writes(), 5, "the held right only");
+        drop(held);
+        // Too many rows for one statement: through the queue, in a transaction.
+        let big: Vec<TelemetryRow> = (0..=TELEMETRY_CHUNK_ROWS)
+            .map(|k| sample(100.0 + k as f64, 38.0))
+            .collect();
+        let n = big.len() as u64;
+        assert_eq!(insert(id.clone(), big).await, counts(n, 0));
+        assert_eq!(store.lone_writes(), 5, "a large post never goes alone");
+        let rows = store.list_telemetry(&id, None).await.expect("rows");
+        assert_eq!(rows.len() as u64, 4 + n);
+        assert_eq!(
+            (rows[1].t_s, rows[1].lat_deg),
+            (2.0, 38.1),
+            "the first copy wins"
+        );
     }
 
     #[tokio::test]

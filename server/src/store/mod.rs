@@ -462,12 +462,31 @@ impl Store {
         received_at_s: f64,
     ) -> Result<Option<InsertCounts>, sqlx::Error> {
         let writer = crate::auth::writer();
-        let stored = match &self.group {
-            Some(g) => {
-                g.submit_telemetry(&mission_id.0, rows, received_at_s, &writer)
-                    .await
-            }
-            None => None,
+        let lone = self
+            .group
+            .as_ref()
+            .filter(|_| rows.len() <= group_commit::TELEMETRY_CHUNK_ROWS)
+            .and_then(group_commit::GroupCommit::try_lone);
+        let stored = if let Some(_lone) = lone {
+            // Alone and small enough for one statement: stored here, without the
+            // hand-offs to the group's task and back (as a lone observation batch).
+            let post = group_commit::NewTelemetry {
+                mission_id: &mission_id.0,
+                rows,
+                received_at_s,
+                writer: &writer,
+            };
+            let r = self
+                .commit_posts(std::slice::from_ref(&post))
+                .await
+                .map(|mut v| v.pop().flatten());
+            self.after_lone_write();
+            Some(r)
+        } else if let Some(g) = &self.group {
+            g.submit_telemetry(&mission_id.0, rows, received_at_s, &writer)
+                .await
+        } else {
+            None
         };
         let stored = match stored {
             Some(r) => r,
