@@ -237,8 +237,9 @@ async fn observe(State(state): State<AppState>, req: Request, next: Next) -> Res
         .extensions()
         .get::<MatchedPath>()
         .map(|m| m.as_str().to_string());
-    let resp = next.run(req).await;
+    let mut resp = next.run(req).await;
     let elapsed = start.elapsed();
+    crate::timing::add_total(&mut resp, elapsed);
     let status = resp.status();
     // Unmatched paths share one label so that scanners cannot blow up the label set.
     let route = route.unwrap_or_else(|| {

@@ -8,7 +8,9 @@
 //!   built, plan row written);
 //! - `POST .../obstacles`: `parse` (JSON to observations), `store` (the batch committed),
 //!   `live` (the batch fed to the mission's live state);
-//! - `POST .../telemetry`: `parse` (body to samples), `store` (the samples committed).
+//! - `POST .../telemetry`: `parse` (body to samples), `store` (the samples committed);
+//! - every response: `total` (the request inside the service's middleware, from the request
+//!   log's start to the response: [`add_total`]), last.
 //!
 //! It reveals nothing a client could not time itself.
 
@@ -62,6 +64,20 @@ impl ServerTiming {
 /// Adds `timing` to `resp` as its `Server-Timing` header.
 pub fn insert(resp: &mut Response, timing: &ServerTiming) {
     if let Ok(v) = HeaderValue::from_str(&timing.header()) {
+        resp.headers_mut().insert("server-timing", v);
+    }
+}
+
+/// Adds `total;dur=` (the whole request inside the service's middleware, handler and
+/// every layer under it) to the `Server-Timing` of `resp`, after its handler's phases if
+/// it has them: what a client's round trip has beyond it is HTTP, loopback and the client.
+pub fn add_total(resp: &mut Response, elapsed: std::time::Duration) {
+    let total = format!("total;dur={:.3}", elapsed.as_secs_f64() * 1e3);
+    let value = match resp.headers().get("server-timing").map(HeaderValue::to_str) {
+        Some(Ok(phases)) if !phases.is_empty() => format!("{phases}, {total}"),
+        _ => total,
+    };
+    if let Ok(v) = HeaderValue::from_str(&value) {
         resp.headers_mut().insert("server-timing", v);
     }
 }
