@@ -22,8 +22,11 @@
 //! before 2026-11-28): the spheres then circle past an aircraft that never gets away, so
 //! half the plans find no clear route and run the safety net, which takes several times as
 //! long. Each phase prints its plans by outcome with their `compute_ms`, its slowest plan
-//! (which is its p99 at 20 plans: number, outcome, round trip and `Server-Timing`), and
-//! where the aircraft is.
+//! (which is its p99 at 20 plans: number, outcome, round trip and `Server-Timing`),
+//! where the aircraft is, the telemetry posts' round trips, and a floor: `GET /healthz`
+//! (one database read) asked halfway between ticks, from the same idle state each tick's
+//! first post starts from, so an ingest tail the floor shares is the machine's, not the
+//! ingest's.
 
 mod support;
 
@@ -212,6 +215,15 @@ struct Phase {
     ingest_ms: Vec<f64>,
     /// The server's `Server-Timing` phases of each ingest, by name.
     ingest_phases: std::collections::BTreeMap<String, Vec<f64>>,
+    /// Round trips of the aircraft's telemetry posts (one sample each).
+    telemetry_ms: Vec<f64>,
+    /// Each ingest and telemetry post: (round trip ms, tick, what, `Server-Timing`), for
+    /// the slowest few.
+    posts: Vec<(f64, u32, &'static str, String)>,
+    /// Round trips of `GET /healthz` asked halfway between ticks (the server idle since
+    /// the tick's requests, as before each tick's first post): one database read and
+    /// nothing else, the floor the ingest's round trip stands on.
+    floor_ms: Vec<f64>,
     cpu_s: f64,
     seconds: f64,
 }
@@ -236,6 +248,9 @@ async fn fly(
         slowest: None,
         ingest_ms: Vec::new(),
         ingest_phases: std::collections::BTreeMap::new(),
+        telemetry_ms: Vec::new(),
+        posts: Vec::new(),
+        floor_ms: Vec::new(),
         cpu_s: 0.0,
         seconds: f64::from(seconds),
     };
@@ -255,6 +270,8 @@ async fn fly(
         ph.ingest_ms.push(s.elapsed().as_secs_f64() * 1e3);
         let timing = server_timing(&r);
         add_phases(&mut ph.ingest_phases, &timing);
+        ph.posts
+            .push((*ph.ingest_ms.last().unwrap(), i, "obstacles", timing));
         let sample = match flier.as_deref_mut() {
             Some(f) => {
                 f.step(0.2);
@@ -265,13 +282,21 @@ async fn fly(
                            "alt_msl_m": 60.96, "heading_deg": 60.0, "speed_mps": 20.0})
             }
         };
-        expect(
+        let s = Instant::now();
+        let r = expect(
             client
                 .post(format!("{base}/api/v1/missions/{id}/telemetry"))
                 .json(&sample),
             202,
         )
         .await;
+        ph.telemetry_ms.push(s.elapsed().as_secs_f64() * 1e3);
+        ph.posts.push((
+            *ph.telemetry_ms.last().unwrap(),
+            i,
+            "telemetry",
+            server_timing(&r),
+        ));
         if i % (5 / plan_hz) == 0 {
             let s = Instant::now();
             let plan = client.post(format!("{base}/api/v1/missions/{id}/plan"));
@@ -311,6 +336,12 @@ async fn fly(
             }
             add_phases(&mut ph.plan_phases, &timing);
         }
+        // Halfway to the next tick, the floor: a request that reads the database once.
+        let half = start + Duration::from_millis(200 * u64::from(i) + 100);
+        tokio::time::sleep_until(half.into()).await;
+        let s = Instant::now();
+        expect(client.get(format!("{base}/healthz")), 200).await;
+        ph.floor_ms.push(s.elapsed().as_secs_f64() * 1e3);
         // Real time: the next tick 0.2 s after this one.
         let next = start + Duration::from_millis(200 * u64::from(i + 1));
         tokio::time::sleep_until(next.into()).await;
@@ -362,6 +393,25 @@ fn main() {
                 pct(&mut ph.ingest_ms, 0.5),
                 pct(&mut ph.ingest_ms, 0.99),
                 ph.cpu_s / ph.seconds * 1e3,
+            );
+            println!(
+                "    telemetry (one sample) ms p50 {:.2} p99 {:.2}; floor (GET /healthz between ticks, one database read) ms p50 {:.2} p99 {:.2}",
+                pct(&mut ph.telemetry_ms, 0.5),
+                pct(&mut ph.telemetry_ms, 0.99),
+                pct(&mut ph.floor_ms, 0.5),
+                pct(&mut ph.floor_ms, 0.99),
+            );
+            ph.posts.sort_by(|a, b| b.0.total_cmp(&a.0));
+            println!(
+                "    slowest posts: {}",
+                ph.posts
+                    .iter()
+                    .take(3)
+                    .map(|(ms, tick, what, timing)| format!(
+                        "{what} of tick {tick} {ms:.2} ms ({timing})"
+                    ))
+                    .collect::<Vec<_>>()
+                    .join("; ")
             );
             if let Some(f) = &flier {
                 println!(
