@@ -107,4 +107,20 @@ mod tests {
         assert_eq!(laps[2].1, 2.5);
         assert!(laps[1].1 >= 4.0 - 2.5, "{h}");
     }
+
+    #[test]
+    fn the_total_follows_the_handlers_phases_or_stands_alone() {
+        let ms = std::time::Duration::from_micros(1500);
+        let mut with = Response::new(axum::body::Body::empty());
+        let mut t = ServerTiming::start();
+        t.lap("parse");
+        insert(&mut with, &t);
+        add_total(&mut with, ms);
+        let h = with.headers()["server-timing"].to_str().expect("ascii");
+        assert!(h.starts_with("parse;dur="), "{h}");
+        assert!(h.ends_with(", total;dur=1.500"), "{h}");
+        let mut bare = Response::new(axum::body::Body::empty());
+        add_total(&mut bare, ms);
+        assert_eq!(bare.headers()["server-timing"], "total;dur=1.500");
+    }
 }
