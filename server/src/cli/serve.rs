@@ -59,7 +59,7 @@ pub struct ServeArgs {
 
     /// At most this many missions keep a risk map in memory (about 4 MB each); the least
     /// recently read is dropped first and rebuilt when next needed.
-    #[arg(long, env = "JINK_LIVE_MAX_MAPS", default_value_t = 32)]
+    #[arg(long, env = "JINK_LIVE_MAX_MAPS", default_value_t = crate::live::DEFAULT_MAX_MAPS)]
     pub live_max_maps: usize,
 
     /// A plan uses the mission's last published risk map while the oldest observation

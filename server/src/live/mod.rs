@@ -124,13 +124,18 @@ pub struct LiveConfig {
     pub map_helper: bool,
 }
 
+/// Default of [`LiveConfig::max_maps`] (`--live-max-maps`): a Webster Field map holds
+/// about 6 MB, so 100 live missions with a plan each stay under issue 9's 200 MB (at 32,
+/// since maps grew from 4 to 6 MB, they read 242-246 MB in `plan_load`; at 20, 172-176).
+pub const DEFAULT_MAX_MAPS: usize = 20;
+
 impl Default for LiveConfig {
     fn default() -> Self {
         Self {
             idle: Duration::from_secs(600),
             max_missions: 1000,
             map_idle: Duration::from_secs(10),
-            max_maps: 32,
+            max_maps: DEFAULT_MAX_MAPS,
             plan_map_max_age: Duration::from_millis(DEFAULT_PLAN_MAP_MAX_AGE_MS),
             map_helper: std::thread::available_parallelism().is_ok_and(|n| n.get() >= 2),
         }
