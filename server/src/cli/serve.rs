@@ -57,7 +57,7 @@ pub struct ServeArgs {
     #[arg(long, env = "JINK_LIVE_MAP_IDLE_S", default_value_t = 10)]
     pub live_map_idle_s: u64,
 
-    /// At most this many missions keep a risk map in memory (about 4 MB each); the least
+    /// At most this many missions keep a risk map in memory (about 6 MB each); the least
     /// recently read is dropped first and rebuilt when next needed.
     #[arg(long, env = "JINK_LIVE_MAX_MAPS", default_value_t = crate::live::DEFAULT_MAX_MAPS)]
     pub live_max_maps: usize,
@@ -86,7 +86,8 @@ pub struct ServeArgs {
     /// the database and to the CPU jobs). Default: the cores `--cpu-workers` leaves, at
     /// least 1 (on two cores, one). More threads than that share the cores with the CPU jobs
     /// and hand each other work: on two cores, two runtime threads gave ingest a p99 of
-    /// 3.3-4.0 ms at a flight's load where one gives 1.2-1.4 (README, "One runtime thread").
+    /// 3.4-4.6 ms at a flight's load where one gives 1.2-1.7 in most runs (README, "One
+    /// runtime thread on two cores").
     #[arg(long, env = "JINK_RUNTIME_WORKERS")]
     pub runtime_workers: Option<usize>,
 

@@ -451,9 +451,10 @@ impl Store {
     }
 
     /// Stores aircraft telemetry, all or none; a sample at an already stored time is a
-    /// duplicate. `Ok(None)` when the mission does not exist. On SQLite, posts arriving
-    /// together share one transaction with the observation batches waiting then
-    /// (`group_commit`), on the writer thread (`writer`).
+    /// duplicate. `Ok(None)` when the mission does not exist. On SQLite, a post arriving
+    /// while no other write is outstanding is stored by the caller's task (one statement,
+    /// [`Store::commit_posts`]); posts arriving together share one transaction with the
+    /// observation batches waiting then (`group_commit`), on the writer thread (`writer`).
     #[tracing::instrument(skip(self, rows), fields(n = rows.len()))]
     pub async fn insert_telemetry(
         &self,
