@@ -227,6 +227,14 @@ fn secs(s: f64) -> std::time::Duration {
 }
 
 impl AccessArgs {
+    /// CPU jobs run at once: `--cpu-workers`, else one core less than the machine has; at
+    /// least 1.
+    pub fn cpu_jobs(&self) -> usize {
+        self.cpu_workers
+            .unwrap_or_else(crate::cpu::CpuGate::default_slots)
+            .max(1)
+    }
+
     /// The auth mode for a service bound to `bind`.
     pub fn mode(&self, bind: &SocketAddr) -> AuthMode {
         match self.auth {
@@ -254,10 +262,7 @@ impl AccessArgs {
                 fly_zone_points: self.max_fly_zone_points,
                 other: self.max_list_items,
             },
-            cpu_workers: self
-                .cpu_workers
-                .unwrap_or_else(crate::cpu::CpuGate::default_slots)
-                .max(1),
+            cpu_workers: self.cpu_jobs(),
             plan_workers: self
                 .plan_workers
                 .unwrap_or_else(crate::limits::PlanPool::default_workers)
@@ -323,11 +328,7 @@ pub fn run(args: ServeArgs) -> ExitCode {
     init_logging(args.log_format);
     let workers = args.runtime_workers.unwrap_or_else(|| {
         let cores = std::thread::available_parallelism().map_or(2, std::num::NonZero::get);
-        let jobs = args
-            .access
-            .cpu_workers
-            .unwrap_or_else(crate::cpu::CpuGate::default_slots);
-        default_runtime_workers(cores, jobs)
+        default_runtime_workers(cores, args.access.cpu_jobs())
     });
     let mut builder = tokio::runtime::Builder::new_multi_thread();
     builder.worker_threads(workers.max(1));
