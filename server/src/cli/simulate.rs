@@ -135,7 +135,7 @@ pub struct SimulateArgs {
     pub obstacle_dropout: f64,
 
     /// Also write the prediction report (stages vs constant velocity per behaviour) over
-    /// this many seeds per behaviour (0 = skip).
+    /// this many seeds per behaviour (0 = skip), on the obstacle feed above.
     #[arg(long, default_value_t = 0)]
     pub prediction_seeds: u64,
 }
@@ -273,10 +273,7 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         heading_deg: args.own_heading_noise_deg,
         position_m: args.own_position_noise_m,
     };
-    cfg.run.telemetry.lead_in_s = args.lead_in_s;
-    cfg.run.telemetry.rate_hz = args.obstacle_rate_hz;
-    cfg.run.telemetry.noise_sigma_m = args.obstacle_noise_m;
-    cfg.run.telemetry.dropout_prob = args.obstacle_dropout;
+    cfg.run.telemetry = obstacle_feed(&args);
     let cfg = cfg;
     let make = |family: Family, seed: u64| -> Scenario {
         match &mission {
@@ -332,10 +329,7 @@ pub fn run(args: SimulateArgs) -> ExitCode {
         return ExitCode::from(2);
     }
     if args.prediction_seeds > 0 {
-        let params = sim::prediction::PredictionParams {
-            seeds: args.prediction_seeds,
-            ..Default::default()
-        };
+        let params = prediction_params(&args);
         let rows = sim::prediction::prediction_report(&sim::behaviour::BehaviourKind::ALL, &params);
         let md = sim::prediction::prediction_markdown(&rows);
         println!("\nPrediction (NLL in nats, 95% region coverage):\n{md}");
@@ -385,6 +379,29 @@ fn write_outputs(
     Ok(())
 }
 
+/// The obstacles' telemetry as the flights receive it.
+fn obstacle_feed(args: &SimulateArgs) -> sim::telemetry::TelemetryParams {
+    sim::telemetry::TelemetryParams {
+        rate_hz: args.obstacle_rate_hz,
+        noise_sigma_m: args.obstacle_noise_m,
+        dropout_prob: args.obstacle_dropout,
+        lead_in_s: args.lead_in_s,
+    }
+}
+
+/// The prediction report's parameters: the flights' obstacle feed, without a lead-in (the
+/// report scores tracks from their start).
+fn prediction_params(args: &SimulateArgs) -> sim::prediction::PredictionParams {
+    sim::prediction::PredictionParams {
+        seeds: args.prediction_seeds,
+        telemetry: sim::telemetry::TelemetryParams {
+            lead_in_s: 0.0,
+            ..obstacle_feed(args)
+        },
+        ..Default::default()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -408,6 +425,49 @@ mod tests {
         assert_eq!(seeds(&["--plot", "7", "9"]), vec![7, 9]);
         assert!(seeds(&["--no-plot"]).is_empty());
         assert!(Cli::try_parse_from(["simulate", "--no-plot", "--plot", "3"]).is_err());
+    }
+
+    #[test]
+    fn the_prediction_report_is_scored_on_the_flights_obstacle_feed() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: SimulateArgs,
+        }
+        let parse = |argv: &[&str]| {
+            Cli::try_parse_from(std::iter::once("simulate").chain(argv.iter().copied()))
+                .unwrap()
+                .args
+        };
+        let judges = parse(&[
+            "--prediction-seeds",
+            "3",
+            "--obstacle-rate-hz",
+            "5",
+            "--obstacle-noise-m",
+            "0",
+            "--obstacle-dropout",
+            "0",
+            "--lead-in-s",
+            "900",
+        ]);
+        let p = prediction_params(&judges);
+        assert_eq!(p.seeds, 3);
+        assert_eq!(
+            (
+                p.telemetry.rate_hz,
+                p.telemetry.noise_sigma_m,
+                p.telemetry.dropout_prob
+            ),
+            (5.0, 0.0, 0.0)
+        );
+        // The flights keep their lead-in; the report scores tracks from their start.
+        assert_eq!(obstacle_feed(&judges).lead_in_s, 900.0);
+        assert_eq!(p.telemetry.lead_in_s, 0.0);
+        // By default, the simulator's default feed.
+        let p = prediction_params(&parse(&[]));
+        assert_eq!(p.telemetry, sim::telemetry::TelemetryParams::default());
     }
 
     #[test]
