@@ -9,6 +9,7 @@
 //! - [`motion`]: each stage's motion model and particle propagation.
 //! - [`replay`]: manoeuvre replay, the future drawn from stretches of the obstacle's own past.
 //! - [`young`]: a young track's quadratic in time, before replay has enough past.
+//! - [`leg`]: a spline tour's present leg, the cubic in time it flies to its next knot.
 //! - [`risk_map`]: the time-indexed, incrementally updated risk map.
 //! - [`predictor`]: the multi-obstacle [`Predictor`] tying them together.
 //! - [`stats`]: chi-square and divergence helpers.
@@ -17,6 +18,7 @@
 
 pub mod estimate;
 pub mod field;
+pub mod leg;
 pub mod motion;
 pub mod periodic;
 pub mod predictor;

@@ -78,6 +78,9 @@ pub struct MotionModel {
     /// A young track's quadratic ([`crate::young`]): when set (never with `replay` or
     /// `lap`), particles fly it before turning as the stage model does.
     pub young: Option<YoungModel>,
+    /// A spline tour's present leg ([`crate::young::fit_leg`]): when set, its share of the
+    /// particles fly the leg's cubic to their knot, the others the model above.
+    pub leg: Option<YoungModel>,
 }
 
 /// How an obstacle's own past is replayed ([`crate::replay`]).
@@ -153,6 +156,7 @@ impl MotionModel {
             lap: None,
             replay: None,
             young: None,
+            leg: None,
         }
     }
 
@@ -163,12 +167,18 @@ impl MotionModel {
         if self.lap.is_some() && dt_s > 0.0 {
             return f64::INFINITY;
         }
+        let leg = self
+            .leg
+            .filter(|_| self.stage != Stage::NoFly)
+            .map_or(0.0, |y| {
+                geom::dist(self.position_m, y.at(0.0)) + y.reach_m(dt_s)
+            });
         if let Some(y) = &self.young
             && self.stage != Stage::NoFly
         {
             // Measured from the model's position, which the fit's may differ from.
             let off = geom::dist(self.position_m, y.at(0.0));
-            return y.reach_m(dt_s) + off;
+            return (y.reach_m(dt_s) + off).max(leg);
         }
         let v = if self.stage == Stage::NoFly {
             self.nofly_speed_mps
@@ -176,7 +186,7 @@ impl MotionModel {
             self.replay
                 .map_or(self.speed_mps, |r| r.max_speed_mps.max(self.speed_mps))
         };
-        v * dt_s.max(0.0)
+        (v * dt_s.max(0.0)).max(leg)
     }
 
     fn levels(&self) -> usize {
@@ -241,7 +251,7 @@ impl MotionModel {
         }
         let mut p = Propagator::with_replay(self, replay, n, rng);
         p.advance_to(self.t_s + dt_s, rng);
-        (0..n).map(|i| [p.x[i], p.y[i]]).collect()
+        p.positions().collect()
     }
 }
 
@@ -264,6 +274,8 @@ pub struct Propagator<'a> {
     speed: Vec<f64>,
     /// Particles still on a young track's quadratic ([`crate::young`]).
     young: Option<YoungParticles>,
+    /// The particles of the model's leg ([`MotionModel::leg`]), propagated beside these.
+    leg: Option<Box<Propagator<'a>>>,
 }
 
 /// Each particle's own quadratic (plus its jerk's cubic term) per axis: coefficients of
@@ -273,29 +285,44 @@ struct YoungParticles {
     coef: Vec<[[f64; 4]; 2]>,
     centre: [f64; 2],
     model: YoungModel,
+    /// When each particle leaves its cubic, seconds after the start.
+    until: Vec<f64>,
+    /// Particles that left it (flown by the stage model since).
+    free: Vec<bool>,
 }
 
 impl YoungParticles {
     fn draw<R: Rng + ?Sized>(y: &YoungModel, n: usize, rng: &mut R) -> Self {
+        let mut until = Vec::with_capacity(n);
         let coef = (0..n)
             .map(|_| {
-                std::array::from_fn(|axis| {
+                let c = std::array::from_fn(|axis| {
                     let z: [f64; 4] = std::array::from_fn(|_| StandardNormal.sample(&mut *rng));
-                    let mut c = [y.c[axis][0], y.c[axis][1], y.c[axis][2], 0.0];
-                    for (r, cr) in c.iter_mut().take(3).enumerate() {
+                    let mut c = y.c[axis];
+                    for (r, cr) in c.iter_mut().enumerate() {
                         for (k, zk) in z.iter().take(r + 1).enumerate() {
                             *cr += y.l[r][k] * zk;
                         }
                     }
-                    c[3] = y.jerk_sigma_mps3 * z[3] / 6.0;
+                    c[3] += y.jerk_sigma_mps3 * z[3] / 6.0;
                     c
-                })
+                });
+                until.push(match y.knot {
+                    None => y.until_s,
+                    Some(k) => {
+                        let e: f64 = rand_distr::Exp1.sample(&mut *rng);
+                        (k.min_s + k.mean_s * e).min(y.until_s)
+                    }
+                });
+                c
             })
             .collect();
         Self {
             coef,
             centre: y.at(0.0),
             model: *y,
+            free: vec![false; n],
+            until,
         }
     }
 
@@ -337,13 +364,44 @@ impl<'a> Propagator<'a> {
     /// Whether the particles may move although the model's speed is 0: they replay the
     /// obstacle's past, or fly a young track's quadratic (which carries its acceleration).
     pub fn moves(&self) -> bool {
-        self.replay.is_some() || self.young.is_some() || !self.speed.is_empty()
+        self.replay.is_some()
+            || self.young.is_some()
+            || !self.speed.is_empty()
+            || self.leg.is_some()
+    }
+
+    /// Every particle's position: the model's, then its leg's.
+    pub fn positions(&self) -> impl Iterator<Item = [f64; 2]> + '_ {
+        let own = self.x.iter().zip(&self.y).map(|(&x, &y)| [x, y]);
+        let leg = self
+            .leg
+            .iter()
+            .flat_map(|l| l.x.iter().zip(&l.y).map(|(&x, &y)| [x, y]));
+        own.chain(leg)
     }
 
     /// As [`Propagator::new`]; when the model has [`MotionModel::replay`] set and
     /// `replay` holds the obstacle's track and frames with anchors to replay, the particles
     /// replay stretches of its own past ([`crate::replay`]) instead.
     pub fn with_replay<R: Rng + ?Sized>(
+        model: &'a MotionModel,
+        replay: Option<(&'a Track, &'a Manoeuvres)>,
+        n: usize,
+        rng: &mut R,
+    ) -> Self {
+        let k = model
+            .leg
+            .map_or(0, |l| ((l.share * n as f64).round() as usize).min(n));
+        let mut p = Self::own(model, replay, n - k, rng);
+        if let Some(l) = model.leg.filter(|_| k > 0) {
+            let l = YoungModel { share: 1.0, ..l };
+            p.leg = Some(Box::new(Self::stage(model, Some(&l), k, rng)));
+        }
+        p
+    }
+
+    /// The model's own particles (replay, or the stage model with its young quadratic).
+    fn own<R: Rng + ?Sized>(
         model: &'a MotionModel,
         replay: Option<(&'a Track, &'a Manoeuvres)>,
         n: usize,
@@ -376,8 +434,19 @@ impl<'a> Propagator<'a> {
                 replay: Some(rp),
                 speed: Vec::new(),
                 young: None,
+                leg: None,
             };
         }
+        Self::stage(model, model.young.as_ref(), n, rng)
+    }
+
+    /// `n` particles of the stage model, `young`'s share of them on its polynomial first.
+    fn stage<R: Rng + ?Sized>(
+        model: &'a MotionModel,
+        young: Option<&YoungModel>,
+        n: usize,
+        rng: &mut R,
+    ) -> Self {
         let dti = model.decision_interval_s;
         let level = (0..n)
             .map(|_| model.draw_level(model.last_bin, rng) as u16)
@@ -397,9 +466,9 @@ impl<'a> Propagator<'a> {
             }
             (uy[i], ux[i]) = h.sin_cos();
         }
-        let young = model.young.map(|ym| {
+        let young = young.map(|ym| {
             let k = ((ym.share * n as f64).round() as usize).min(n);
-            let yp = YoungParticles::draw(&ym, k, rng);
+            let yp = YoungParticles::draw(ym, k, rng);
             let reach = ym.reach_m(0.0);
             for i in 0..k {
                 [x[i], y[i]] = yp.at(i, 0.0, reach);
@@ -424,6 +493,7 @@ impl<'a> Propagator<'a> {
             replay: None,
             speed,
             young,
+            leg: None,
         }
     }
 
@@ -463,6 +533,9 @@ impl<'a> Propagator<'a> {
 
     /// Advances every particle to `t_s` (no-op if already there or later).
     pub fn advance_to<R: Rng + ?Sized>(&mut self, t_s: f64, rng: &mut R) {
+        if let Some(l) = &mut self.leg {
+            l.advance_to(t_s, rng);
+        }
         if let Some(rp) = &mut self.replay {
             if t_s > self.t_s {
                 rp.advance_to(t_s - self.model.t_s, &mut self.x, &mut self.y, rng);
@@ -471,6 +544,41 @@ impl<'a> Propagator<'a> {
             return;
         }
         let t_s = t_s.max(self.t_s);
+        if let Some(mut yp) = self.young.take_if(|y| y.model.knot.is_some()) {
+            // Each particle leaves its leg's cubic at its own knot: from there it flies on
+            // straight for the rest of this step, then as the stage model does.
+            let m = self.model;
+            self.step(t_s, rng);
+            let u = t_s - m.t_s;
+            let mut left = false;
+            for i in 0..yp.coef.len() {
+                if yp.free[i] {
+                    continue;
+                }
+                let e = yp.until[i];
+                if u <= e {
+                    [self.x[i], self.y[i]] = yp.at(i, u, yp.model.reach_m(u));
+                    left = true;
+                    continue;
+                }
+                let p = yp.at(i, e, yp.model.reach_m(e));
+                let v = yp.velocity(i, e);
+                let sp = v[0].hypot(v[1]);
+                let vs = sp.min(yp.model.max_speed_mps);
+                self.speed[i] = vs;
+                if sp > 1e-9 {
+                    (self.ux[i], self.uy[i]) = (v[0] / sp, v[1] / sp);
+                }
+                let d = vs * (u - e);
+                self.x[i] = p[0] + self.ux[i] * d;
+                self.y[i] = p[1] + self.uy[i] * d;
+                yp.free[i] = true;
+            }
+            if left {
+                self.young = Some(yp);
+            }
+            return;
+        }
         if let Some(yp) = self.young.take() {
             let m = self.model;
             let t_end = m.t_s + yp.model.until_s;

@@ -476,6 +476,13 @@ fn refresh(ob: &mut Obstacle, cfg: &PredictorConfig, samples_changed: bool) {
                 max_speed_mps: ob.manoeuvres.max_speed_mps(&ob.track, &rc, 5.0),
             });
         }
+        // A spline tour's leg (crate::leg): a share of the particles fly its cubic.
+        if ob.model.lap.is_none()
+            && let Some(rc) = cfg.replay
+            && let Some((leg, _)) = crate::leg::fit(&ob.track, &rc, ob.model.speed_mps)
+        {
+            ob.model.leg = Some(leg);
+        }
         // Too young for replay: the quadratic through its last seconds (crate::young).
         if ob.model.lap.is_none()
             && ob.model.replay.is_none()

@@ -62,6 +62,7 @@ use rand::Rng;
 /// Replay parameters, with documented defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(default))]
 pub struct ReplayConfig {
     /// Window of the fits that give a frame, seconds. Default 2.
     pub heading_window_s: f64,
@@ -99,6 +100,20 @@ pub struct ReplayConfig {
     /// Share of a young track's particles that fly its quadratic; the others fly the stage
     /// model from the start. Default 0.5.
     pub young_share: f64,
+    /// Share of the particles that fly a spline tour's present leg ([`crate::leg`]) beside
+    /// the model's own; 0 disables. Default 0.5.
+    pub leg_share: f64,
+    /// Shortest leg trusted, seconds. Default 8.
+    pub leg_min_s: f64,
+    /// Noisiest feed legs are fitted from: the pooled residual standard deviation per
+    /// axis, metres. Default 0.25 (the judges' server sends exact positions).
+    pub leg_max_noise_m: f64,
+    /// Mean of the exponential time to a leg's end past its shortest length, seconds.
+    /// Default 20.
+    pub leg_knot_mean_s: f64,
+    /// Shortest leg of a tour, metres: no particle leaves the cubic before the leg is this
+    /// long at the present speed. Default 100.
+    pub leg_min_length_m: f64,
 }
 
 impl Default for ReplayConfig {
@@ -118,6 +133,11 @@ impl Default for ReplayConfig {
             young_min_span_s: 2.0,
             young_noise_floor_m: 0.5,
             young_share: 0.5,
+            leg_share: 0.5,
+            leg_min_s: 8.0,
+            leg_max_noise_m: 0.25,
+            leg_knot_mean_s: 20.0,
+            leg_min_length_m: 100.0,
         }
     }
 }

@@ -34,11 +34,15 @@ use nalgebra::{Matrix3, Vector3};
 /// The fitted quadratic of a young track and how its particles fly it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct YoungModel {
-    /// `[x, y]` coefficients of `1, u, u^2`, `u` seconds after the newest observation.
-    pub c: [[f64; 3]; 2],
+    /// `[x, y]` coefficients of `1, u, u^2, u^3`, `u` seconds after the newest observation
+    /// (the cubic term 0 for a young quadratic).
+    pub c: [[f64; 4]; 2],
     /// Lower-triangular factor `L` of the coefficients' covariance (`L L^T`, the same for
-    /// both axes), metres and seconds.
-    pub l: [[f64; 3]; 3],
+    /// both axes), metres and seconds (the last row and column 0 for a young quadratic).
+    pub l: [[f64; 4]; 4],
+    /// A leg's end: each particle leaves the cubic after `min_s` plus an exponential time
+    /// of mean `mean_s` (at most `until_s`); `None`: every particle at `until_s`.
+    pub knot: Option<Knot>,
     /// Standard deviation of each particle's jerk per axis, m/s^3.
     pub jerk_sigma_mps3: f64,
     /// How long particles fly the quadratic, seconds.
@@ -65,8 +69,21 @@ impl YoungModel {
     /// The mean position `u` seconds after the newest observation.
     pub fn at(&self, u: f64) -> [f64; 2] {
         let [x, y] = self.c;
-        [x[0] + u * (x[1] + u * x[2]), y[0] + u * (y[1] + u * y[2])]
+        [
+            x[0] + u * (x[1] + u * (x[2] + u * x[3])),
+            y[0] + u * (y[1] + u * (y[2] + u * y[3])),
+        ]
     }
+}
+
+/// When a leg of a spline tour ends (a knot, where the cubic changes), seconds after the
+/// newest observation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Knot {
+    /// No knot before this.
+    pub min_s: f64,
+    /// Mean of the exponential time after `min_s`.
+    pub mean_s: f64,
 }
 
 /// Fits a young track's quadratic (the caller decides whether the track is young);
@@ -118,10 +135,12 @@ pub fn fit(track: &Track, cfg: &ReplayConfig, speed_mps: f64) -> Option<YoungMod
     }
     let chol = cov.cholesky()?;
     let lm = chol.l();
-    let l = std::array::from_fn(|r| std::array::from_fn(|k| lm[(r, k)]));
+    let l: [[f64; 4]; 4] = std::array::from_fn(|r| {
+        std::array::from_fn(|k| if r < 3 && k < 3 { lm[(r, k)] } else { 0.0 })
+    });
     let c = [
-        [cx[0], cx[1] * s[1], cx[2] * s[2]],
-        [cy[0], cy[1] * s[1], cy[2] * s[2]],
+        [cx[0], cx[1] * s[1], cx[2] * s[2], 0.0],
+        [cy[0], cy[1] * s[1], cy[2] * s[2], 0.0],
     ];
     // An obstacle at rest (the estimate's speed 0) moves on only when its fitted
     // acceleration is clearly not noise (chi-square, 2 degrees of freedom, p < 0.001): a
@@ -144,6 +163,7 @@ pub fn fit(track: &Track, cfg: &ReplayConfig, speed_mps: f64) -> Option<YoungMod
         until_s,
         max_speed_mps,
         share: cfg.young_share,
+        knot: None,
     })
 }
 

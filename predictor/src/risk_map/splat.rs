@@ -85,8 +85,8 @@ impl RiskMap {
                 self.add_particle(o.model.position_m, all);
             } else {
                 prop.advance_to(tk, &mut rng);
-                for i in 0..n {
-                    self.add_particle([prop.x[i], prop.y[i]], 1);
+                for p in prop.positions() {
+                    self.add_particle(p, 1);
                 }
             }
             self.finish_slice(si[self.cur.level], c);
