@@ -78,7 +78,7 @@ pub struct MotionModel {
     /// A young track's quadratic ([`crate::young`]): when set (never with `replay` or
     /// `lap`), particles fly it before turning as the stage model does.
     pub young: Option<YoungModel>,
-    /// A spline tour's present leg ([`crate::young::fit_leg`]): when set, its share of the
+    /// A spline tour's present leg ([`crate::leg::fit`]): when set, its share of the
     /// particles fly the leg's cubic to their knot, the others the model above.
     pub leg: Option<YoungModel>,
 }
@@ -550,7 +550,7 @@ impl<'a> Propagator<'a> {
             let m = self.model;
             self.step(t_s, rng);
             let u = t_s - m.t_s;
-            let mut left = false;
+            let mut on_cubic = false;
             for i in 0..yp.coef.len() {
                 if yp.free[i] {
                     continue;
@@ -558,7 +558,7 @@ impl<'a> Propagator<'a> {
                 let e = yp.until[i];
                 if u <= e {
                     [self.x[i], self.y[i]] = yp.at(i, u, yp.model.reach_m(u));
-                    left = true;
+                    on_cubic = true;
                     continue;
                 }
                 let p = yp.at(i, e, yp.model.reach_m(e));
@@ -574,7 +574,7 @@ impl<'a> Propagator<'a> {
                 self.y[i] = p[1] + self.uy[i] * d;
                 yp.free[i] = true;
             }
-            if left {
+            if on_cubic {
                 self.young = Some(yp);
             }
             return;
