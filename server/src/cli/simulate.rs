@@ -408,38 +408,29 @@ mod tests {
     use sim::geometry::point_in_polygon;
     use sim::mission::{altitude_band_m, bounds_m, fly_zone};
 
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: SimulateArgs,
+    }
+
+    /// `jink simulate`'s arguments from `argv`.
+    fn parse(argv: &[&str]) -> Result<SimulateArgs, clap::Error> {
+        use clap::Parser;
+        Cli::try_parse_from(std::iter::once("simulate").chain(argv.iter().copied())).map(|c| c.args)
+    }
+
     #[test]
     fn the_first_seed_is_plotted_unless_told_otherwise() {
-        use clap::Parser;
-        #[derive(Parser)]
-        struct Cli {
-            #[command(flatten)]
-            args: SimulateArgs,
-        }
-        let seeds = |argv: &[&str]| {
-            let cli = Cli::try_parse_from(std::iter::once("simulate").chain(argv.iter().copied()))
-                .unwrap();
-            plot_seeds(&cli.args)
-        };
+        let seeds = |argv: &[&str]| plot_seeds(&parse(argv).unwrap());
         assert_eq!(seeds(&["--first-seed", "5"]), vec![5]);
         assert_eq!(seeds(&["--plot", "7", "9"]), vec![7, 9]);
         assert!(seeds(&["--no-plot"]).is_empty());
-        assert!(Cli::try_parse_from(["simulate", "--no-plot", "--plot", "3"]).is_err());
+        assert!(parse(&["--no-plot", "--plot", "3"]).is_err());
     }
 
     #[test]
     fn the_prediction_report_is_scored_on_the_flights_obstacle_feed() {
-        use clap::Parser;
-        #[derive(Parser)]
-        struct Cli {
-            #[command(flatten)]
-            args: SimulateArgs,
-        }
-        let parse = |argv: &[&str]| {
-            Cli::try_parse_from(std::iter::once("simulate").chain(argv.iter().copied()))
-                .unwrap()
-                .args
-        };
         let judges = parse(&[
             "--prediction-seeds",
             "3",
@@ -451,7 +442,8 @@ mod tests {
             "0",
             "--lead-in-s",
             "900",
-        ]);
+        ])
+        .unwrap();
         let p = prediction_params(&judges);
         assert_eq!(p.seeds, 3);
         assert_eq!(
@@ -466,7 +458,7 @@ mod tests {
         assert_eq!(obstacle_feed(&judges).lead_in_s, 900.0);
         assert_eq!(p.telemetry.lead_in_s, 0.0);
         // By default, the simulator's default feed.
-        let p = prediction_params(&parse(&[]));
+        let p = prediction_params(&parse(&[]).unwrap());
         assert_eq!(p.telemetry, sim::telemetry::TelemetryParams::default());
     }
 
