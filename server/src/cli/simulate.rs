@@ -432,16 +432,16 @@ mod tests {
     #[test]
     fn the_prediction_report_is_scored_on_the_flights_obstacle_feed() {
         let judges = parse(&[
-            "--prediction-seeds",
-            "3",
-            "--obstacle-rate-hz",
-            "5",
-            "--obstacle-noise-m",
-            "0",
-            "--obstacle-dropout",
-            "0",
             "--lead-in-s",
             "900",
+            "--obstacle-noise-m",
+            "0.3",
+            "--obstacle-rate-hz",
+            "10",
+            "--obstacle-dropout",
+            "0.1",
+            "--prediction-seeds",
+            "3",
         ])
         .unwrap();
         let p = prediction_params(&judges);
@@ -452,7 +452,7 @@ mod tests {
                 p.telemetry.noise_sigma_m,
                 p.telemetry.dropout_prob
             ),
-            (5.0, 0.0, 0.0)
+            (10.0, 0.3, 0.1)
         );
         // The flights keep their lead-in; the report scores tracks from their start.
         assert_eq!(obstacle_feed(&judges).lead_in_s, 900.0);
