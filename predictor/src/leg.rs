@@ -337,7 +337,6 @@ mod tests {
                 let s0 = without.sample_future("0", h, 400, &mut rng).unwrap();
                 let (n1, n0) = (near(&s), near(&s0));
                 let on_leg = 200.0 * (-h / 20.0f64).exp();
-                eprintln!("+{h} s: {n1} against {n0}");
                 assert!(
                     n1 as f64 >= 0.85 * on_leg && n1 >= n0 + 50,
                     "+{h} s: {n1} against {n0}"
