@@ -107,9 +107,7 @@ pub fn fit(track: &Track, cfg: &ReplayConfig, speed_mps: f64) -> Option<(YoungMo
     let noise = pooled_noise(obs, 4.0, 40.0).map(|(v, d)| (v.max(FLOOR_M * FLOOR_M), d));
     // A noisy feed hides a turner's turns within a cubic's residuals: legs only from a
     // precise one.
-    if noise.is_none_or(|(v, _)| v > cfg.leg_max_noise_m * cfg.leg_max_noise_m) {
-        return None;
-    }
+    let (v0, d0) = noise.filter(|(v, _)| *v <= cfg.leg_max_noise_m * cfg.leg_max_noise_m)?;
     let mut best = None;
     let mut n = 0usize;
     for o in obs.iter().rev() {
@@ -138,7 +136,6 @@ pub fn fit(track: &Track, cfg: &ReplayConfig, speed_mps: f64) -> Option<(YoungMo
         };
         let dof = (2 * (n - 4)) as f64;
         let var = rss / dof;
-        let (v0, d0) = noise?;
         // One cubic fits while its residuals are the noise's (a z-test of the variance ratio).
         if var > v0 * (1.0 + 3.0 * (2.0 / dof + 2.0 / d0).sqrt()) {
             break;
