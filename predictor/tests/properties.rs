@@ -39,9 +39,10 @@ fn fed(
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
-    /// Each slice of an obstacle holds exactly its stencil's area of probability (every
-    /// particle carries 1/N and splats one stencil; a cell sums at most N/N = 1), up to f32
-    /// rounding and the 1e-6 clamp: relative 1e-3. The stencil approximates the disc
+    /// Each slice of an obstacle holds its stencils' area of probability (every particle
+    /// carries 1/N and splats the stencil of its sub-cell position; a cell sums at most N/N
+    /// = 1): between the smallest and the largest stencil, up to f32 rounding and the 1e-6
+    /// clamp (relative 1e-3). The stencil approximates the disc
     /// pi (r + buffer)^2 to within the splat error of a 5 m grid (25% for the smallest
     /// radius, less for larger ones).
     #[test]
@@ -61,9 +62,11 @@ proptest! {
         for k in 0..map.slices() {
             // Slices after 15 s use 10 m cells (the default resolution schedule): their
             // mass is that resolution's stencil area.
-            let area = map.slice_stencil_area_m2(radius, k);
+            // A particle splats the stencil of its sub-cell position, so the mass lies
+            // between the smallest and the largest of them.
+            let [lo, hi] = map.slice_stencil_areas_m2(radius, k);
             let m = map.obstacle_mass_m2("0", k).unwrap();
-            prop_assert!((m - area).abs() / area < 1e-3, "slice {k}: {m} vs {area}");
+            prop_assert!(m >= lo * (1.0 - 1e-3) && m <= hi * (1.0 + 1e-3), "slice {k}: {m} vs {lo}..{hi}");
         }
     }
 

@@ -70,6 +70,48 @@ fn a_stationary_obstacle_map_stays_a_disc_of_radius_plus_buffer() {
     }
 }
 
+#[test]
+fn a_sphere_is_splatted_from_where_it_is_within_its_cell_not_from_the_cells_centre() {
+    // A stationary sphere of 9.144 m (30 ft) near corners and edges of its cells: every
+    // cell whose centre is within radius + buffer (14.144 m) of the sphere is certain and
+    // no other, to within the distance from the sphere to the centre of its third of a
+    // cell (at most cell * sqrt(2) / 6: 1.18 m for 5 m cells, 2.36 m for 10 m ones). From
+    // the cell's centre, as until 2026-12-03, a sphere at 0.95 / 0.05 of a cell was splatted
+    // up to cell * 0.45 * sqrt(2) (3.2 m for 5 m cells) off.
+    for (i, at) in [[14.75, -9.75], [12.2, -7.2], [-3.6, 21.3], [0.1, 0.1]]
+        .into_iter()
+        .enumerate()
+    {
+        let mut p = Predictor::new(PredictorConfig::default());
+        for k in 0..=30 {
+            p.observe("s", obs(f64::from(k) * 0.1, at, 9.144));
+        }
+        let map = p.risk_map(&cfg(), &[], 3.0);
+        for k in [0, 10, 20] {
+            let t = 3.0 + f64::from(k);
+            let view = map.slice(t);
+            let tol = view.cell_m * std::f64::consts::SQRT_2 / 6.0 + 1e-9;
+            let (mut certain, mut clear) = (0, 0);
+            for iy in 0..view.height {
+                for ix in 0..view.width {
+                    let x = view.origin_m[0] + (ix as f64 + 0.5) * view.cell_m;
+                    let y = view.origin_m[1] + (iy as f64 + 0.5) * view.cell_m;
+                    let d = (x - at[0]).hypot(y - at[1]);
+                    let r = view.data[iy * view.width + ix];
+                    if d < 14.144 - tol {
+                        assert!(r > 0.999, "sphere {i}, slice {k}, cell at {d:.2} m: {r}");
+                        certain += 1;
+                    } else if d > 14.144 + tol {
+                        assert_eq!(r, 0.0, "sphere {i}, slice {k}, cell at {d:.2} m");
+                        clear += 1;
+                    }
+                }
+            }
+            assert!(certain > 0 && clear > 0, "sphere {i}, slice {k}");
+        }
+    }
+}
+
 fn feed(
     p: &mut Predictor,
     id: &str,

@@ -7,7 +7,8 @@
 //! spread, [`crate::periodic`]; or, with enough history, flying stretches of its own past,
 //! [`crate::replay`]) are splatted with a
 //! precomputed disc stencil of radius `radius + buffer` (a cell counts when its centre is
-//! within that distance of the particle's cell centre); each particle carries `1/N` of the
+//! within that distance of the centre of the particle's third of a cell: nine stencils a
+//! radius, one per sub-cell position); each particle carries `1/N` of the
 //! mass. A NoFly obstacle is an analytic disc growing at the NoFly speed, evaluated at query
 //! time instead of being gridded (in the slices within [`RiskMapConfig::nofly_horizon_s`]
 //! of slice 0 only, when that is set). Obstacles combine as `1 - prod(1 - p_i)`.
@@ -139,10 +140,19 @@ struct SliceGeom {
 
 #[derive(Debug, Clone)]
 struct Stencil {
-    /// `(dy, half width)` rows.
-    rows: Vec<(i32, i32)>,
+    /// `(dy, first dx, last dx)` rows, relative to the particle's cell.
+    rows: Vec<(i32, i32, i32)>,
     cells: usize,
+    /// Largest `|dy|` or `|dx|` of a row.
+    extent: i32,
 }
+
+/// Sub-cell positions per axis a particle is splatted from: its stencil is the cells whose
+/// centres lie within `radius + buffer` of the centre of its third of a cell, not of its
+/// cell (odd, so the middle position is the cell centre).
+pub(crate) const SUB: usize = 3;
+/// Sub-cell positions per cell.
+pub(crate) const SUB2: usize = SUB * SUB;
 
 /// A time-indexed risk map, updated incrementally per obstacle.
 #[derive(Debug, Clone)]
@@ -162,15 +172,16 @@ pub struct RiskMap {
     q: Vec<f32>,
     contrib: BTreeMap<String, Contribution>,
     discs: Vec<Disc>,
-    /// Keyed by (radius in mm, resolution level).
-    stencils: Vec<((u64, usize), Stencil)>,
+    /// Keyed by (radius in mm, resolution level, sub-cell position).
+    stencils: Vec<((u64, usize, usize), Stencil)>,
     /// `1 - count / particles` (at least 1e-6) and its inverse, by count.
     omp_table: Vec<f32>,
     inv_table: Vec<f32>,
-    /// Per finest-grid cell `(generation, merged weight)`: one cache line per particle.
+    /// Per finest-grid cell `(generation, index into centres)`: one cache line per particle.
     mark: Vec<(u32, u32)>,
     stamp_gen: u32,
-    centres: Vec<u32>,
+    /// The slice's occupied cells and their merged weight per sub-cell position.
+    centres: Vec<(u32, [u32; SUB2])>,
     /// Row-difference scratch of particle counts, `(nx + 1) * ny`, all zero between
     /// slices.
     diff: Vec<i32>,
@@ -178,7 +189,8 @@ pub struct RiskMap {
     row_span: Vec<(i32, i32)>,
     rows_touched: Vec<u32>,
     spare: Vec<Contribution>,
-    stamps: Vec<(i32, i32, u32)>,
+    /// `(cell x, cell y, weight, sub-cell position)` to splat.
+    stamps: Vec<(i32, i32, u32, u32)>,
 }
 
 /// One slice of the map for rendering: row-major from the south-west corner, `data[iy *
@@ -483,8 +495,22 @@ impl RiskMap {
     /// (at that slice's resolution), square metres: an obstacle's mass in every slice.
     pub fn slice_stencil_area_m2(&mut self, radius_m: f64, k: usize) -> f64 {
         let g = self.geo[k.min(self.n_slices - 1)];
-        let i = self.stencil(radius_m + self.cfg.buffer_m, g);
+        let i = self.stencil(radius_m + self.cfg.buffer_m, g, SUB2 / 2);
         self.stencils[i].1.cells as f64 * g.cell_m * g.cell_m
+    }
+
+    /// The smallest and largest area of the splat stencils of a sphere of `radius_m` (plus
+    /// the buffer) in slice `k` over the sub-cell positions a particle is splatted from,
+    /// square metres: an obstacle's mass in a slice lies between them.
+    pub fn slice_stencil_areas_m2(&mut self, radius_m: f64, k: usize) -> [f64; 2] {
+        let g = self.geo[k.min(self.n_slices - 1)];
+        let mut out = [f64::INFINITY, 0.0f64];
+        for sub in 0..SUB2 {
+            let i = self.stencil(radius_m + self.cfg.buffer_m, g, sub);
+            let a = self.stencils[i].1.cells as f64 * g.cell_m * g.cell_m;
+            out = [out[0].min(a), out[1].max(a)];
+        }
+        out
     }
 
     /// Removes every obstacle and rebuilds the map from `obstacles`.

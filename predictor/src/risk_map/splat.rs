@@ -7,42 +7,64 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-use super::{Contribution, ObstacleInput, RiskMap, Run, SliceGeom, Stencil, fnv1a};
+use super::{Contribution, ObstacleInput, RiskMap, Run, SUB, SUB2, SliceGeom, Stencil, fnv1a};
 use crate::motion::Propagator;
 
 /// Largest observation gap a lap replay interpolates across, seconds.
 const LAP_MAX_GAP_S: f64 = 5.0;
 
 impl RiskMap {
-    pub(super) fn stencil(&mut self, r_m: f64, g: SliceGeom) -> usize {
-        let key = ((r_m * 1000.0).round() as u64, g.level);
+    /// The stencil of radius `r_m` at slice geometry `g` for a particle at sub-cell
+    /// position `sub` (`sx + SUB * sy`): the cells whose centres lie within `r_m` of that
+    /// position's centre, `(sx + 0.5) / SUB` of a cell from the cell's west edge (and `sy`
+    /// from its south edge). The middle position is the cell centre.
+    pub(super) fn stencil(&mut self, r_m: f64, g: SliceGeom, sub: usize) -> usize {
+        let key = ((r_m * 1000.0).round() as u64, g.level, sub);
         if let Some(i) = self.stencils.iter().position(|(k, _)| *k == key) {
             return i;
         }
         let rc = r_m / g.cell_m;
-        let n = rc.floor() as i32;
+        let ox = ((sub % SUB) as f64 + 0.5) / SUB as f64;
+        let oy = ((sub / SUB) as f64 + 0.5) / SUB as f64;
         let mut rows = Vec::new();
-        let mut cells = 0;
-        for dy in -n..=n {
-            let rem = rc * rc - f64::from(dy * dy);
+        let (mut cells, mut extent) = (0, 0);
+        let dy0 = (oy - 0.5 - rc).ceil() as i32;
+        let dy1 = (oy - 0.5 + rc).floor() as i32;
+        for dy in dy0..=dy1 {
+            let ey = f64::from(dy) + 0.5 - oy;
+            let rem = rc * rc - ey * ey;
             if rem < 0.0 {
                 continue;
             }
-            let hw = rem.sqrt().floor() as i32;
-            rows.push((dy, hw));
-            cells += (2 * hw + 1) as usize;
+            let w = rem.sqrt();
+            let (x0, x1) = ((ox - 0.5 - w).ceil() as i32, (ox - 0.5 + w).floor() as i32);
+            if x0 > x1 {
+                continue;
+            }
+            rows.push((dy, x0, x1));
+            cells += (x1 - x0 + 1) as usize;
+            extent = extent.max(dy.abs()).max(x0.abs()).max(x1.abs());
         }
-        self.stencils.push((key, Stencil { rows, cells }));
+        self.stencils.push((
+            key,
+            Stencil {
+                rows,
+                cells,
+                extent,
+            },
+        ));
         self.stencils.len() - 1
     }
 
     pub(super) fn splat_obstacle(&mut self, o: &ObstacleInput<'_>, r_m: f64, c: &mut Contribution) {
-        // Stencil per resolution level (at most three).
-        let mut si = [usize::MAX; 3];
+        // Stencils per resolution level (at most three) and sub-cell position.
+        let mut si = [[usize::MAX; SUB2]; 3];
         for k in 0..self.n_slices {
             let g = self.geo[k];
-            if si[g.level] == usize::MAX {
-                si[g.level] = self.stencil(r_m, g);
+            if si[g.level][0] == usize::MAX {
+                for (sub, s) in si[g.level].iter_mut().enumerate() {
+                    *s = self.stencil(r_m, g, sub);
+                }
             }
         }
         let n = self.cfg.particles;
@@ -89,7 +111,7 @@ impl RiskMap {
                     self.add_particle(p, 1);
                 }
             }
-            self.finish_slice(si[self.cur.level], c);
+            self.finish_slice(&si[self.cur.level], c);
         }
     }
 
@@ -103,50 +125,62 @@ impl RiskMap {
         self.stamps.clear();
     }
 
-    /// Merges a particle into its cell; a particle outside the grid is stamped on its own
-    /// (its stencil may still reach the grid).
+    /// Merges a particle into its cell and sub-cell position; a particle outside the grid
+    /// is stamped on its own (its stencil may still reach the grid).
     fn add_particle(&mut self, p: [f64; 2], w: u32) {
         let g = &self.cur;
         let fx = (p[0] - self.cfg.min_m[0]) * g.inv_cell;
         let fy = (p[1] - self.cfg.min_m[1]) * g.inv_cell;
+        let sub_of = |f: f64, i: f64| (((f - i) * SUB as f64) as usize).min(SUB - 1);
         // Inside the grid the truncating casts are the floor (no libm call on this path).
         if fx >= 0.0 && fy >= 0.0 && fx < g.nx as f64 && fy < g.ny as f64 {
-            let j = fy as usize * g.nx + fx as usize;
+            let (ix, iy) = (fx as usize, fy as usize);
+            let sub = sub_of(fx, ix as f64) + SUB * sub_of(fy, iy as f64);
+            let j = iy * g.nx + ix;
             let m = &mut self.mark[j];
             if m.0 != self.stamp_gen {
-                *m = (self.stamp_gen, w);
-                self.centres.push(j as u32);
+                *m = (self.stamp_gen, self.centres.len() as u32);
+                let mut counts = [0; SUB2];
+                counts[sub] = w;
+                self.centres.push((j as u32, counts));
             } else {
-                m.1 += w;
+                self.centres[m.1 as usize].1[sub] += w;
             }
         } else {
-            let (fx, fy) = (fx.floor(), fy.floor());
-            self.stamps
-                .push((fx.clamp(-1e8, 1e8) as i32, fy.clamp(-1e8, 1e8) as i32, w));
+            let (ix, iy) = (fx.floor(), fy.floor());
+            let sub = sub_of(fx, ix) + SUB * sub_of(fy, iy);
+            self.stamps.push((
+                ix.clamp(-1e8, 1e8) as i32,
+                iy.clamp(-1e8, 1e8) as i32,
+                w,
+                sub as u32,
+            ));
         }
     }
 
     /// Splats the slice's merged centres into a dense buffer over their bounding box
     /// (contiguous row additions), then keeps the non-zero cells as the slice's entries.
     #[inline(never)]
-    fn finish_slice(&mut self, si: usize, c: &mut Contribution) {
+    fn finish_slice(&mut self, si: &[usize; SUB2], c: &mut Contribution) {
         let g = self.cur;
         let nx = g.nx as i32;
         let ny = g.ny as i32;
-        for &j in &self.centres {
+        for &(j, counts) in &self.centres {
             let j = j as usize;
-            self.stamps
-                .push(((j % g.nx) as i32, (j / g.nx) as i32, self.mark[j].1));
+            for (sub, &w) in counts.iter().enumerate() {
+                if w > 0 {
+                    self.stamps
+                        .push(((j % g.nx) as i32, (j / g.nx) as i32, w, sub as u32));
+                }
+            }
         }
-        let stencil = &self.stencils[si].1;
-        let rc = stencil
-            .rows
+        let rc = si
             .iter()
-            .map(|r| r.0.abs().max(r.1))
+            .map(|&i| self.stencils[i].1.extent)
             .max()
             .unwrap_or(0);
         let (mut bx0, mut by0, mut bx1, mut by1) = (i32::MAX, i32::MAX, i32::MIN, i32::MIN);
-        for &(cx, cy, _) in &self.stamps {
+        for &(cx, cy, _, _) in &self.stamps {
             bx0 = bx0.min(cx);
             by0 = by0.min(cy);
             bx1 = bx1.max(cx);
@@ -175,14 +209,15 @@ impl RiskMap {
             // stencil's width, and no clearing of untouched cells.
             let stride = g.nx + 1;
             self.rows_touched.clear();
-            for &(cx, cy, w) in &self.stamps {
-                for &(dy, hw) in &stencil.rows {
+            for &(cx, cy, w, sub) in &self.stamps {
+                let stencil = &self.stencils[si[sub as usize]].1;
+                for &(dy, lo, hi) in &stencil.rows {
                     let y = cy + dy;
                     if y < by0 || y > by1 {
                         continue;
                     }
-                    let x0 = (cx - hw).max(bx0);
-                    let x1 = (cx + hw).min(bx1);
+                    let x0 = (cx + lo).max(bx0);
+                    let x1 = (cx + hi).min(bx1);
                     if x0 > x1 {
                         continue;
                     }
