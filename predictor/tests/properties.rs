@@ -47,14 +47,14 @@ proptest! {
     /// radius, less for larger ones).
     #[test]
     fn probability_mass_per_slice_is_conserved(
-        bi in 0u8..5, seed in 0u64..1000, speed in 3.0f64..20.0, radius in 9.0f64..40.0,
+        bi in 0u8..5, seed in 0u64..1000, speed in 3.0f64..20.0, radius in 9.0f64..40.0, sub in any::<bool>(),
         stage in prop_oneof![Just(None), Just(Some(Stage::Random)), Just(Some(Stage::Advanced)), Just(Some(Stage::Memory))],
     ) {
         let cfg = PredictorConfig::default().forced_stage(stage);
         let (p, _) = fed(behaviour(bi, 0.25), speed, radius, seed, 40.0, cfg);
         // The grid is centred on the obstacle and wider than it can fly in the horizon.
         let c = p.obstacle("0").unwrap().estimates.position_m;
-        let mc = RiskMapConfig::default().bounds([c[0] - 700.0, c[1] - 700.0], [c[0] + 700.0, c[1] + 700.0]).time(1.0, 20.0).particles(64);
+        let mc = RiskMapConfig::default().bounds([c[0] - 700.0, c[1] - 700.0], [c[0] + 700.0, c[1] + 700.0]).time(1.0, 20.0).particles(64).subcell_splat(sub);
         let mut map = p.build_risk_map(&mc, &[], 40.0).unwrap();
         let area = map.stencil_area_m2(radius);
         let disc = std::f64::consts::PI * (radius + mc.buffer_m).powi(2);
@@ -62,8 +62,8 @@ proptest! {
         for k in 0..map.slices() {
             // Slices after 15 s use 10 m cells (the default resolution schedule): their
             // mass is that resolution's stencil area.
-            // A particle splats the stencil of its sub-cell position, so the mass lies
-            // between the smallest and the largest of them.
+            // A particle splats the stencil of its sub-cell position (the cell centre's by
+            // default), so the mass lies between the smallest and the largest of them.
             let [lo, hi] = map.slice_stencil_areas_m2(radius, k);
             let m = map.obstacle_mass_m2("0", k).unwrap();
             prop_assert!(m >= lo * (1.0 - 1e-3) && m <= hi * (1.0 + 1e-3), "slice {k}: {m} vs {lo}..{hi}");

@@ -71,13 +71,14 @@ fn a_stationary_obstacle_map_stays_a_disc_of_radius_plus_buffer() {
 }
 
 #[test]
-fn a_sphere_is_splatted_from_where_it_is_within_its_cell_not_from_the_cells_centre() {
+fn with_subcell_splat_a_sphere_is_splatted_from_where_it_is_within_its_cell() {
     // A stationary sphere of 9.144 m (30 ft) near corners and edges of its cells: every
     // cell whose centre is within radius + buffer (14.144 m) of the sphere is certain and
     // no other, to within the distance from the sphere to the centre of its third of a
-    // cell (at most cell * sqrt(2) / 6: 1.18 m for 5 m cells, 2.36 m for 10 m ones). From
-    // the cell's centre, as until 2026-12-03, a sphere at 0.95 / 0.05 of a cell was splatted
-    // up to cell * 0.45 * sqrt(2) (3.2 m for 5 m cells) off.
+    // cell (at most cell * sqrt(2) / 6: 1.18 m for 5 m cells, 2.36 m for 10 m ones), with
+    // `subcell_splat` (off by default). From the cell's centre, the default, a sphere at
+    // 0.95 / 0.05 of a cell is splatted up to cell * 0.45 * sqrt(2) (3.2 m for 5 m cells)
+    // off: this test fails without the option.
     for (i, at) in [[14.75, -9.75], [12.2, -7.2], [-3.6, 21.3], [0.1, 0.1]]
         .into_iter()
         .enumerate()
@@ -86,7 +87,7 @@ fn a_sphere_is_splatted_from_where_it_is_within_its_cell_not_from_the_cells_cent
         for k in 0..=30 {
             p.observe("s", obs(f64::from(k) * 0.1, at, 9.144));
         }
-        let map = p.risk_map(&cfg(), &[], 3.0);
+        let map = p.risk_map(&cfg().subcell_splat(true), &[], 3.0);
         for k in [0, 10, 20] {
             let t = 3.0 + f64::from(k);
             let view = map.slice(t);

@@ -41,6 +41,12 @@ pub struct RiskMapConfig {
     /// disc a wall within the window and counts nothing beyond it.
     #[cfg_attr(feature = "serde", serde(default))]
     pub nofly_horizon_s: Option<f64>,
+    /// Splat each particle from the centre of its third of a cell (nine stencils a radius)
+    /// instead of from its cell's centre, which is up to half a cell off on each axis (7 m
+    /// with 10 m cells). Default false (measured and not kept as the default; README,
+    /// "Splatted from a third of a cell"): flights 2-3 s shorter on the judges' feed, but
+    /// more sphere hits over the same seeds.
+    pub subcell_splat: bool,
 }
 
 impl Default for RiskMapConfig {
@@ -58,6 +64,7 @@ impl Default for RiskMapConfig {
             particles: 256,
             seed: 0,
             nofly_horizon_s: None,
+            subcell_splat: false,
         }
     }
 }
@@ -67,6 +74,11 @@ impl RiskMapConfig {
     pub fn bounds(mut self, min_m: [f64; 2], max_m: [f64; 2]) -> Self {
         self.min_m = min_m;
         self.max_m = max_m;
+        self
+    }
+    /// Splats particles from their third of a cell ([`RiskMapConfig::subcell_splat`]).
+    pub fn subcell_splat(mut self, on: bool) -> Self {
+        self.subcell_splat = on;
         self
     }
     /// Sets the cell size.

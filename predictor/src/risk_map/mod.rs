@@ -7,8 +7,9 @@
 //! spread, [`crate::periodic`]; or, with enough history, flying stretches of its own past,
 //! [`crate::replay`]) are splatted with a
 //! precomputed disc stencil of radius `radius + buffer` (a cell counts when its centre is
-//! within that distance of the centre of the particle's third of a cell: nine stencils a
-//! radius, one per sub-cell position); each particle carries `1/N` of the
+//! within that distance of the particle's cell centre, or with
+//! [`RiskMapConfig::subcell_splat`] of the centre of the particle's third of a cell: nine
+//! stencils a radius, one per sub-cell position); each particle carries `1/N` of the
 //! mass. A NoFly obstacle is an analytic disc growing at the NoFly speed, evaluated at query
 //! time instead of being gridded (in the slices within [`RiskMapConfig::nofly_horizon_s`]
 //! of slice 0 only, when that is set). Obstacles combine as `1 - prod(1 - p_i)`.
@@ -147,9 +148,10 @@ struct Stencil {
     extent: i32,
 }
 
-/// Sub-cell positions per axis a particle is splatted from: its stencil is the cells whose
-/// centres lie within `radius + buffer` of the centre of its third of a cell, not of its
-/// cell (odd, so the middle position is the cell centre).
+/// Sub-cell positions per axis a particle is splatted from with
+/// [`RiskMapConfig::subcell_splat`]: its stencil is the cells whose centres lie within
+/// `radius + buffer` of the centre of its third of a cell, not of its cell (odd, so the
+/// middle position, the only one without it, is the cell centre).
 pub(crate) const SUB: usize = 3;
 /// Sub-cell positions per cell.
 pub(crate) const SUB2: usize = SUB * SUB;
@@ -500,12 +502,18 @@ impl RiskMap {
     }
 
     /// The smallest and largest area of the splat stencils of a sphere of `radius_m` (plus
-    /// the buffer) in slice `k` over the sub-cell positions a particle is splatted from,
-    /// square metres: an obstacle's mass in a slice lies between them.
+    /// the buffer) in slice `k` over the sub-cell positions a particle is splatted from
+    /// (the cell centre alone without [`RiskMapConfig::subcell_splat`]), square metres: an
+    /// obstacle's mass in a slice lies between them.
     pub fn slice_stencil_areas_m2(&mut self, radius_m: f64, k: usize) -> [f64; 2] {
         let g = self.geo[k.min(self.n_slices - 1)];
         let mut out = [f64::INFINITY, 0.0f64];
-        for sub in 0..SUB2 {
+        let subs = if self.cfg.subcell_splat {
+            0..SUB2
+        } else {
+            SUB2 / 2..SUB2 / 2 + 1
+        };
+        for sub in subs {
             let i = self.stencil(radius_m + self.cfg.buffer_m, g, sub);
             let a = self.stencils[i].1.cells as f64 * g.cell_m * g.cell_m;
             out = [out[0].min(a), out[1].max(a)];

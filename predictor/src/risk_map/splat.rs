@@ -58,12 +58,21 @@ impl RiskMap {
 
     pub(super) fn splat_obstacle(&mut self, o: &ObstacleInput<'_>, r_m: f64, c: &mut Contribution) {
         // Stencils per resolution level (at most three) and sub-cell position.
+        // Without sub-cell splatting every particle is at the middle position, whose
+        // stencil stands for all nine.
         let mut si = [[usize::MAX; SUB2]; 3];
+        let mut built = [false; 3];
         for k in 0..self.n_slices {
             let g = self.geo[k];
-            if si[g.level][0] == usize::MAX {
+            if !built[g.level] {
+                built[g.level] = true;
+                let centre = self.stencil(r_m, g, SUB2 / 2);
                 for (sub, s) in si[g.level].iter_mut().enumerate() {
-                    *s = self.stencil(r_m, g, sub);
+                    *s = if self.cfg.subcell_splat {
+                        self.stencil(r_m, g, sub)
+                    } else {
+                        centre
+                    };
                 }
             }
         }
@@ -131,7 +140,15 @@ impl RiskMap {
         let g = &self.cur;
         let fx = (p[0] - self.cfg.min_m[0]) * g.inv_cell;
         let fy = (p[1] - self.cfg.min_m[1]) * g.inv_cell;
-        let sub_of = |f: f64, i: f64| (((f - i) * SUB as f64) as usize).min(SUB - 1);
+        // The middle position (the cell centre) when sub-cell splatting is off.
+        let on = self.cfg.subcell_splat;
+        let sub_of = |f: f64, i: f64| {
+            if on {
+                (((f - i) * SUB as f64) as usize).min(SUB - 1)
+            } else {
+                SUB / 2
+            }
+        };
         // Inside the grid the truncating casts are the floor (no libm call on this path).
         if fx >= 0.0 && fy >= 0.0 && fx < g.nx as f64 && fy < g.ny as f64 {
             let (ix, iy) = (fx as usize, fy as usize);
