@@ -496,8 +496,13 @@ impl RiskMap {
     /// Area of the splat stencil of a sphere of `radius_m` (plus the buffer) in slice `k`
     /// (at that slice's resolution), square metres: an obstacle's mass in every slice.
     pub fn slice_stencil_area_m2(&mut self, radius_m: f64, k: usize) -> f64 {
+        self.sub_stencil_area_m2(radius_m, k, SUB2 / 2)
+    }
+
+    /// Area of the stencil of sub-cell position `sub` in slice `k`, square metres.
+    fn sub_stencil_area_m2(&mut self, radius_m: f64, k: usize, sub: usize) -> f64 {
         let g = self.geo[k.min(self.n_slices - 1)];
-        let i = self.stencil(radius_m + self.cfg.buffer_m, g, SUB2 / 2);
+        let i = self.stencil(radius_m + self.cfg.buffer_m, g, sub);
         self.stencils[i].1.cells as f64 * g.cell_m * g.cell_m
     }
 
@@ -506,7 +511,6 @@ impl RiskMap {
     /// (the cell centre alone without [`RiskMapConfig::subcell_splat`]), square metres: an
     /// obstacle's mass in a slice lies between them.
     pub fn slice_stencil_areas_m2(&mut self, radius_m: f64, k: usize) -> [f64; 2] {
-        let g = self.geo[k.min(self.n_slices - 1)];
         let mut out = [f64::INFINITY, 0.0f64];
         let subs = if self.cfg.subcell_splat {
             0..SUB2
@@ -514,8 +518,7 @@ impl RiskMap {
             SUB2 / 2..SUB2 / 2 + 1
         };
         for sub in subs {
-            let i = self.stencil(radius_m + self.cfg.buffer_m, g, sub);
-            let a = self.stencils[i].1.cells as f64 * g.cell_m * g.cell_m;
+            let a = self.sub_stencil_area_m2(radius_m, k, sub);
             out = [out[0].min(a), out[1].max(a)];
         }
         out
