@@ -56,8 +56,12 @@ pub const VERTICAL_MARGIN_M: f64 = 10.0;
 pub struct ReplanConfig {
     /// Margin around the fly zones' (and home's) bounding box, metres. Default 300.
     pub margin_m: f64,
-    /// Risk-map template: cell size (default 10 m), resolution schedule, particles, buffer,
-    /// seed. Bounds and time axis are set by [`ReplanConfig::map_config`].
+    /// Risk-map template: cell size, resolution schedule, particles, buffer, seed. Bounds
+    /// and time axis are set by [`ReplanConfig::map_config`]. Default: 5 m cells up to 15 s
+    /// after the map's anchor, kept out of the shared grid and read from the obstacles' own
+    /// runs ([`RiskMapConfig::sparse_fine`]), 20 m cells beyond (10 m everywhere up to 15 s
+    /// until 2026-12-03: the cell rounding cost the perfect-knowledge planner 11.5 s a
+    /// Webster Field flight; README, "Fine slices read from the obstacles' runs").
     pub map: RiskMapConfig,
     /// Planner parameters (horizon [`crate::DEFAULT_HORIZON_S`], samples, buffer fraction...).
     pub plan: PlanParams,
@@ -67,7 +71,10 @@ impl Default for ReplanConfig {
     fn default() -> Self {
         Self {
             margin_m: 300.0,
-            map: RiskMapConfig::default().cell_m(10.0),
+            map: RiskMapConfig::default()
+                .cell_m(5.0)
+                .resolution(15.0, 15.0, 2)
+                .sparse_fine(true),
             plan: PlanParams::default(),
         }
     }

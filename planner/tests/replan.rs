@@ -117,7 +117,13 @@ fn the_map_grid_covers_the_fly_zones_and_home_plus_the_margin() {
     let g = cfg.map_config(&mission());
     assert_eq!(g.min_m, [-400.0, -900.0]);
     assert_eq!(g.max_m, [2400.0, 900.0]);
-    assert_eq!(g.cell_m, 10.0);
+    // 5 m cells up to 15 s, kept out of the shared grid; 20 m beyond.
+    assert_eq!(g.cell_m, 5.0);
+    assert_eq!(
+        (g.fine_horizon_s, g.coarse_horizon_s, g.coarse_factor),
+        (15.0, 15.0, 2)
+    );
+    assert!(g.sparse_fine);
     assert_eq!(g.horizon_s, 30.0);
 }
 
@@ -446,7 +452,7 @@ fn the_live_map_reads_a_passing_sphere_at_most_one_slice_longer_each_side_than_i
             .filter(|&t| predictor::RiskField::risk(&live.map, pt, t) >= 0.06)
             .collect();
         let (first, last) = (held[0], held[held.len() - 1]);
-        // Slack: 9 m at 18 m/s, for the 10 m cells and the particles' spread.
+        // Slack: 9 m at 18 m/s, for the cells and the particles' spread.
         let slack = 0.5;
         let (enter, leave) = (first - tp, last - tp);
         assert!(
@@ -464,4 +470,56 @@ fn the_live_map_reads_a_passing_sphere_at_most_one_slice_longer_each_side_than_i
             "one held run"
         );
     }
+}
+
+/// How many reads of a sphere's edge on `cfg`'s live map are wrong by more than `tol_m`:
+/// a 30 ft sphere at rest off the cells' corners, read over the first 15 s on rings
+/// `tol_m` inside (must be certain) and outside (must be clear) its radius plus buffer.
+fn edge_errors(cfg: &ReplanConfig, tol_m: f64) -> usize {
+    let m = common::one_leg_mission([-300.0, -300.0], [300.0, 300.0]);
+    let c = [43.3, -16.8];
+    let mut p = Predictor::new(PredictorConfig::default());
+    for k in 0..=30 {
+        let o = Observation {
+            t_s: 0.1 * f64::from(k),
+            p_m: c,
+            alt_m: 100.0,
+            radius_m: 9.144,
+        };
+        p.observe("s", o);
+    }
+    let live = planner::replan::live_map(&p, &m, cfg)
+        .unwrap()
+        .expect("a map");
+    let edge = 9.144 + cfg.map.buffer_m;
+    let mut wrong = 0;
+    for k in 0..=30 {
+        let t = live.t0_s + 0.5 * f64::from(k);
+        for i in 0..360 {
+            let a = f64::from(i).to_radians();
+            let at = |d: f64| [c[0] + d * a.cos(), c[1] + d * a.sin()];
+            let inside = predictor::RiskField::risk(&live.map, at(edge - tol_m), t);
+            let outside = predictor::RiskField::risk(&live.map, at(edge + tol_m), t);
+            wrong += usize::from(inside < 0.99) + usize::from(outside > 0.0);
+        }
+    }
+    wrong
+}
+
+#[test]
+fn the_live_map_puts_a_spheres_edge_within_a_5_m_cells_diagonal_up_to_15_s_ahead() {
+    // The server's map (`ReplanConfig::default`): 5 m cells up to 15 s, read from the
+    // obstacles' runs. A particle is splatted from its cell's centre and a read is its
+    // cell's, so the edge is off by at most a cell's diagonal (7.07 m); with the 10 m cells
+    // of before, by up to 14.1 m, which the same check finds.
+    let tol = 5.0 * std::f64::consts::SQRT_2 + 0.05;
+    assert_eq!(edge_errors(&ReplanConfig::default(), tol), 0);
+    let before = ReplanConfig {
+        map: predictor::RiskMapConfig::default().cell_m(10.0),
+        ..ReplanConfig::default()
+    };
+    assert!(
+        edge_errors(&before, tol) > 0,
+        "10 m cells should miss the edge somewhere"
+    );
 }

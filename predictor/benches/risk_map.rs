@@ -22,7 +22,8 @@ const N: usize = 10;
 /// The default map (5 m cells, 256 particles, the default resolution schedule) unless
 /// `JINK_BENCH_CELL_M` / `JINK_BENCH_PARTICLES` / `JINK_BENCH_SCHEDULE` say otherwise (to
 /// measure the trade-off). The schedule is `fine_horizon_s,coarse_horizon_s,coarse_factor`,
-/// e.g. `inf,inf,1` for `cell_m` in every slice.
+/// e.g. `inf,inf,1` for `cell_m` in every slice. `JINK_BENCH_SPARSE=1` keeps the fine
+/// slices out of the grid ([`RiskMapConfig::sparse_fine`]).
 fn map_cfg() -> RiskMapConfig {
     let env = |k: &str| std::env::var(k).ok().and_then(|v| v.parse::<f64>().ok());
     let mut c = RiskMapConfig::default().bounds([-750.0, -750.0], [750.0, 750.0]);
@@ -37,6 +38,9 @@ fn map_cfg() -> RiskMapConfig {
         if let [fine_s, coarse_s, factor] = v[..] {
             c = c.resolution(fine_s, coarse_s, factor as u32);
         }
+    }
+    if std::env::var("JINK_BENCH_SPARSE").is_ok_and(|v| v == "1") {
+        c = c.sparse_fine(true);
     }
     eprintln!("risk map: {c:?}");
     c
@@ -91,6 +95,7 @@ fn bench(c: &mut Criterion) {
     {
         let mut p = base.clone();
         let m = p.risk_map(&cfg, &[], 120.0).clone();
+        eprintln!("map heap: {} bytes", m.heap_bytes());
         for s in base.obstacles() {
             eprintln!(
                 "obstacle {}: stage {:?}, speed {:.1} m/s, radius {:.1} m, {} cells over the horizon",

@@ -689,3 +689,81 @@ fn the_map_reads_risk_wherever_the_predictors_own_samples_put_an_obstacle() {
         }
     }
 }
+
+#[test]
+fn fine_slices_kept_out_of_the_grid_read_as_the_grid_would_and_hold_no_grid() {
+    // `sparse_fine`: the fine slices (5 m cells up to 15 s here) are read from the
+    // obstacles' own runs instead of the shared grid. Every read, rendered slice and
+    // altitude-band read equals the grid's (to f32 rounding of the product), before and
+    // after an incremental update and with a NoFly disc; and the fine slices' grid is not
+    // allocated.
+    let mut p = four_flyers();
+    p.observe("young", obs(64.0, [30.0, -20.0], 10.0));
+    assert_eq!(p.obstacle("young").unwrap().stage, Stage::NoFly);
+    let t0 = 65.0;
+    let dense_cfg = cfg().nofly_horizon_s(Some(10.0));
+    let sparse_cfg = dense_cfg.clone().sparse_fine(true);
+    let compare = |dense: &predictor::RiskMap, sparse: &predictor::RiskMap| {
+        let (mut worst, mut nonzero) = (0.0f64, 0);
+        for k in 0..=60 {
+            let t = t0 + f64::from(k) * 0.5;
+            for iy in -40..=40 {
+                for ix in -40..=40 {
+                    let q = [f64::from(ix) * 3.7 + 0.4, f64::from(iy) * 3.7 - 1.1];
+                    let (a, b) = (dense.risk(q, t), sparse.risk(q, t));
+                    worst = worst.max((a - b).abs());
+                    nonzero += usize::from(a > 0.0);
+                }
+            }
+            let (a, b) = (dense.slice(t), sparse.slice(t));
+            assert_eq!((a.width, a.height, a.cell_m), (b.width, b.height, b.cell_m));
+            for (x, y) in a.data.iter().zip(&b.data) {
+                worst = worst.max(f64::from((x - y).abs()));
+            }
+        }
+        assert!(
+            worst < 1e-5,
+            "sparse reads differ from the grid's by {worst}"
+        );
+        assert!(
+            nonzero > 1000,
+            "too few reads with risk to compare: {nonzero}"
+        );
+        let (dv, sv) = (
+            dense.altitude_view([("a", Some([0.0, 120.0])), ("young", None)]),
+            sparse.altitude_view([("a", Some([0.0, 120.0])), ("young", None)]),
+        );
+        for k in 0..=30 {
+            let t = t0 + f64::from(k);
+            for i in -40..=40 {
+                let q = [f64::from(i) * 3.7, f64::from(i) * -2.9 + 5.0];
+                for band in [[50.0, 100.0], [200.0, 260.0]] {
+                    let (a, b) = (dv.risk_in_band(q, t, band), sv.risk_in_band(q, t, band));
+                    assert!(
+                        (a - b).abs() < 1e-5,
+                        "band {band:?} at {q:?}, {t}: {a} / {b}"
+                    );
+                }
+            }
+        }
+    };
+    let dense = p.build_risk_map(&dense_cfg, &[], t0).unwrap();
+    let sparse = p.build_risk_map(&sparse_cfg, &[], t0).unwrap();
+    compare(&dense, &sparse);
+    // The fine slices (0..=15 s, 1 s apart: 16 of 5 m cells over 800 m) hold no grid.
+    let fine_grid_bytes = 16 * 160 * 160 * std::mem::size_of::<f32>();
+    assert!(
+        sparse.heap_bytes() + fine_grid_bytes <= dense.heap_bytes() + 64 * 1024,
+        "sparse {} B, dense {} B",
+        sparse.heap_bytes(),
+        dense.heap_bytes()
+    );
+    // Incremental updates: a new observation of the young one, then "b" removed.
+    p.observe("young", obs(64.5, [31.0, -20.0], 10.0));
+    let mut d2 = p.risk_map(&dense_cfg, &[], t0).clone();
+    let mut s2 = p.risk_map(&sparse_cfg, &[], t0).clone();
+    compare(&d2, &s2);
+    d2.remove_obstacle("b");
+    s2.remove_obstacle("b");
+    compare(&d2, &s2);
+}

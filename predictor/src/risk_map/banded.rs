@@ -107,7 +107,7 @@ impl RiskMap {
 
     /// Risk of slice `k` at `p_m` from the contributions `kept` (unfiltered ones, in the
     /// map's order).
-    fn slice_risk_of<'c>(
+    pub(super) fn slice_risk_of<'c>(
         &self,
         p_m: [f64; 2],
         k: usize,

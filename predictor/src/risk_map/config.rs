@@ -47,6 +47,14 @@ pub struct RiskMapConfig {
     /// "Splatted from a third of a cell"): flights 2-3 s shorter on the judges' feed, but
     /// more sphere hits over the same seeds.
     pub subcell_splat: bool,
+    /// Keep the finest slices (those up to `fine_horizon_s`) out of the shared grid: a read
+    /// there is the product over the obstacles whose slice box holds the point, each one's
+    /// count at the cell looked up in its own runs. The fine slices then cost memory only
+    /// where obstacles are, not a grid of the whole field each, so they can use small cells
+    /// (the server's 5 m up to 15 s); a read costs a box test per obstacle instead of one
+    /// load. Default false.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub sparse_fine: bool,
 }
 
 impl Default for RiskMapConfig {
@@ -65,6 +73,7 @@ impl Default for RiskMapConfig {
             seed: 0,
             nofly_horizon_s: None,
             subcell_splat: false,
+            sparse_fine: false,
         }
     }
 }
@@ -79,6 +88,11 @@ impl RiskMapConfig {
     /// Splats particles from their third of a cell ([`RiskMapConfig::subcell_splat`]).
     pub fn subcell_splat(mut self, on: bool) -> Self {
         self.subcell_splat = on;
+        self
+    }
+    /// Keeps the finest slices out of the shared grid ([`RiskMapConfig::sparse_fine`]).
+    pub fn sparse_fine(mut self, on: bool) -> Self {
+        self.sparse_fine = on;
         self
     }
     /// Sets the cell size.

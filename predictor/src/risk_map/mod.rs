@@ -30,7 +30,11 @@
 //!   geometry (a small per-slice array of reciprocal cell size, width, height and offset)
 //!   and one load per slice (`risk = 1 - q`, nearest cell); between two slice times the
 //!   worse of the two bracketing slices answers (conservative in time: a fast obstacle
-//!   moves more than the buffer in half a slice);
+//!   moves more than the buffer in half a slice). With [`RiskMapConfig::sparse_fine`] the
+//!   finest slices have no dense grid: a read there is `1 - prod(1 - p_i)` over the
+//!   obstacles whose slice bounding box (or NoFly disc) holds the point, each count found
+//!   by a binary search in the obstacle's runs, so small fine cells cost memory only where
+//!   obstacles are (the server's 5 m cells up to 15 s);
 //! - per obstacle and slice, runs of consecutive cells with a `u16` particle count per
 //!   cell (`p = count / particles`, exact, so mass is conserved exactly); `1 - p`
 //!   (clamped to at least 1e-6) and its inverse come from tables, so an obstacle's
@@ -137,6 +141,9 @@ struct SliceGeom {
     ny: usize,
     /// Resolution level (0 = `cell_m`).
     level: usize,
+    /// Not in the shared grid `q` ([`RiskMapConfig::sparse_fine`]): read from the
+    /// obstacles' runs (`off` unused).
+    sparse: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -263,6 +270,9 @@ fn for_each_cell(
     mut f: impl FnMut(&mut f32, u16),
 ) {
     for k in 0..n_slices.min(c.slice_start.len().saturating_sub(1)) {
+        if geo[k].sparse {
+            continue;
+        }
         let base = geo[k].off;
         let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
         for run in &c.runs[r] {
@@ -353,6 +363,7 @@ impl RiskMap {
                 2
             };
             let (cell_m, lx, ly) = dims(level);
+            let sparse = level == 0 && cfg.sparse_fine;
             geo.push(SliceGeom {
                 inv_cell: 1.0 / cell_m,
                 cell_m,
@@ -360,8 +371,11 @@ impl RiskMap {
                 nx: lx as usize,
                 ny: ly as usize,
                 level: level as usize,
+                sparse,
             });
-            total += lx * ly;
+            if !sparse {
+                total += lx * ly;
+            }
             if total >= 1 << 31 {
                 return Err(RiskMapError::TooLarge(total));
             }
@@ -547,6 +561,9 @@ impl RiskMap {
     fn clear_all(&mut self) {
         for c in self.contrib.values() {
             for k in 0..self.n_slices.min(c.slice_start.len().saturating_sub(1)) {
+                if self.geo[k].sparse {
+                    continue;
+                }
                 let base = self.geo[k].off;
                 for run in &c.runs[c.slice_start[k] as usize..c.slice_start[k + 1] as usize] {
                     let a = base + run.idx as usize;

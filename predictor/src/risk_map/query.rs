@@ -26,10 +26,14 @@ impl RiskMap {
     pub fn slice(&self, t_s: f64) -> SliceView {
         let k = self.slice_index(t_s);
         let g = self.geo[k];
-        let mut data: Vec<f32> = self.q[g.off..g.off + g.nx * g.ny]
-            .iter()
-            .map(|&q| (1.0 - q).clamp(0.0, 1.0))
-            .collect();
+        let mut data: Vec<f32> = if g.sparse {
+            self.sparse_grid(k)
+        } else {
+            self.q[g.off..g.off + g.nx * g.ny].to_vec()
+        };
+        for q in &mut data {
+            *q = (1.0 - *q).clamp(0.0, 1.0);
+        }
         if !self.discs.is_empty() {
             let cm = g.cell_m;
             for iy in 0..g.ny {
@@ -54,10 +58,37 @@ impl RiskMap {
         }
     }
 
-    /// Risk of slice `k` at `p_m` (grid and NoFly discs).
+    /// Slice `k`'s `prod(1 - p_i)` per cell, from the obstacles' runs (a sparse slice's
+    /// grid, for rendering), multiplied in the map's order as a fold into `q` would be.
+    fn sparse_grid(&self, k: usize) -> Vec<f32> {
+        let g = self.geo[k];
+        let mut q = vec![1.0f32; g.nx * g.ny];
+        for c in self.contrib.values().filter(|c| !c.filtered) {
+            if k + 1 >= c.slice_start.len() {
+                continue;
+            }
+            let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
+            for run in &c.runs[r] {
+                let a = run.idx as usize;
+                let counts = &c.counts[run.start as usize..(run.start + run.len) as usize];
+                for (q, &n) in q[a..a + run.len as usize].iter_mut().zip(counts) {
+                    if n > 0 {
+                        *q *= self.omp_table[usize::from(n)];
+                    }
+                }
+            }
+        }
+        q
+    }
+
+    /// Risk of slice `k` at `p_m` (grid and NoFly discs; a sparse slice from the runs of
+    /// the obstacles whose slice box or disc holds the point).
     #[inline]
     pub(super) fn slice_risk(&self, p_m: [f64; 2], k: usize) -> f64 {
         let g = &self.geo[k];
+        if g.sparse {
+            return self.slice_risk_of(p_m, k, self.contrib.values().filter(|c| !c.filtered));
+        }
         let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
         let fy = (p_m[1] - self.cfg.min_m[1]) * g.inv_cell;
         let mut r = 0.0;

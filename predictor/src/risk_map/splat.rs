@@ -282,8 +282,11 @@ impl RiskMap {
                         }
                         zeros = 0;
                         c.counts.push(n as u16);
-                        // Fold the contribution into the combined grid in the same pass.
-                        self.q[qbase + gbase + xx] *= self.omp_table[n as usize];
+                        // Fold the contribution into the combined grid in the same pass
+                        // (a sparse slice has none: it is read from the runs).
+                        if !g.sparse {
+                            self.q[qbase + gbase + xx] *= self.omp_table[n as usize];
+                        }
                         row_first = row_first.min(xx);
                         row_last = xx;
                     } else if let Some((x_start, start)) = open {

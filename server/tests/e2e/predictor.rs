@@ -98,7 +98,7 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
         risk["height"].as_u64().unwrap(),
     );
     assert_eq!(risk["values"].as_array().unwrap().len() as u64, w * h);
-    assert_eq!(risk["cell_m"], 10.0);
+    assert_eq!(risk["cell_m"], 5.0);
     assert!(risk["max"].as_f64().unwrap() > 0.99, "max {}", risk["max"]);
     assert_eq!(risk["anchor_t"].as_f64().unwrap(), T0 + 70.9);
     let later = app
