@@ -269,19 +269,33 @@ fn for_each_cell(
     c: &Contribution,
     mut f: impl FnMut(&mut f32, u16),
 ) {
-    for k in 0..n_slices.min(c.slice_start.len().saturating_sub(1)) {
+    for k in 0..n_slices {
         if geo[k].sparse {
             continue;
         }
         let base = geo[k].off;
-        let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
-        for run in &c.runs[r] {
-            let a = base + run.idx as usize;
-            let counts = &c.counts[run.start as usize..(run.start + run.len) as usize];
-            for (q, &n) in q[a..a + run.len as usize].iter_mut().zip(counts) {
+        for (idx, counts) in c.slice_runs(k) {
+            let a = base + idx;
+            for (q, &n) in q[a..a + counts.len()].iter_mut().zip(counts) {
                 f(q, n);
             }
         }
+    }
+}
+
+impl Contribution {
+    /// Slice `k`'s runs as (first cell within the slice, counts); none for a slice the
+    /// contribution has no entry for (filtered, a NoFly disc).
+    fn slice_runs(&self, k: usize) -> impl Iterator<Item = (usize, &[u16])> {
+        let r = if k + 1 < self.slice_start.len() {
+            self.slice_start[k] as usize..self.slice_start[k + 1] as usize
+        } else {
+            0..0
+        };
+        self.runs[r].iter().map(|run| {
+            let counts = &self.counts[run.start as usize..(run.start + run.len) as usize];
+            (run.idx as usize, counts)
+        })
     }
 }
 

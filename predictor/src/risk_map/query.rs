@@ -64,14 +64,8 @@ impl RiskMap {
         let g = self.geo[k];
         let mut q = vec![1.0f32; g.nx * g.ny];
         for c in self.contrib.values().filter(|c| !c.filtered) {
-            if k + 1 >= c.slice_start.len() {
-                continue;
-            }
-            let r = c.slice_start[k] as usize..c.slice_start[k + 1] as usize;
-            for run in &c.runs[r] {
-                let a = run.idx as usize;
-                let counts = &c.counts[run.start as usize..(run.start + run.len) as usize];
-                for (q, &n) in q[a..a + run.len as usize].iter_mut().zip(counts) {
+            for (a, counts) in c.slice_runs(k) {
+                for (q, &n) in q[a..a + counts.len()].iter_mut().zip(counts) {
                     if n > 0 {
                         *q *= self.omp_table[usize::from(n)];
                     }
