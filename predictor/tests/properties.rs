@@ -71,12 +71,14 @@ proptest! {
     }
 
     /// Risk is a probability everywhere, in and out of the grid and the horizon; the
-    /// segment bound is at least the risk at the segment's sampled points.
+    /// segment bound is at least the risk at the segment's sampled points (with the fine
+    /// slices in the grid or read from the obstacles' runs).
     #[test]
     fn risk_is_a_probability_and_the_segment_bound_is_conservative(
         seeds in proptest::collection::vec(0u64..1000, 1..4),
         bis in proptest::collection::vec(0u8..5, 3),
         pts in proptest::collection::vec((-500.0f64..500.0, -500.0f64..500.0, 35.0f64..75.0), 20),
+        sparse in any::<bool>(),
     ) {
         let mut p = Predictor::new(PredictorConfig::default());
         for (i, s) in seeds.iter().enumerate() {
@@ -87,7 +89,9 @@ proptest! {
             }
         }
         p.observe("new", predictor::Observation { t_s: 40.0, p_m: [-200.0, 200.0], alt_m: 0.0, radius_m: 20.0 });
-        let mc = RiskMapConfig::default().bounds([-400.0, -400.0], [400.0, 400.0]).time(1.0, 20.0).particles(64);
+        // With `sparse_fine` a read between the first 15 s's slices follows each cloud by
+        // its mean's move, off the slices' own boxes: the bound must still hold it.
+        let mc = RiskMapConfig::default().bounds([-400.0, -400.0], [400.0, 400.0]).time(1.0, 20.0).particles(64).sparse_fine(sparse);
         let map = p.risk_map(&mc, &[], 40.0);
         for w in pts.windows(2) {
             let (a, b) = ([w[0].0, w[0].1], [w[1].0, w[1].1]);

@@ -34,7 +34,12 @@
 //!   finest slices have no dense grid: a read there is `1 - prod(1 - p_i)` over the
 //!   obstacles whose slice bounding box (or NoFly disc) holds the point, each count found
 //!   by a binary search in the obstacle's runs, so small fine cells cost memory only where
-//!   obstacles are (the server's 5 m cells up to 15 s);
+//!   obstacles are (the server's 5 m cells up to 15 s); and between two such slices each
+//!   obstacle is read where its cloud is at the time asked: in both slices at the point
+//!   moved back (forward) by the part of its particles' mean move between the slices that
+//!   the time has (still) to go, the larger count kept. A cloud moving as a whole is then
+//!   read where it is, not over both slices' places (10 m ahead and behind for a 20 m/s
+//!   obstacle between half-second slices);
 //! - per obstacle and slice, runs of consecutive cells with a `u16` particle count per
 //!   cell (`p = count / particles`, exact, so mass is conserved exactly); `1 - p`
 //!   (clamped to at least 1e-6) and its inverse come from tables, so an obstacle's
@@ -46,8 +51,9 @@
 //!   the start and subtracts it after the end of each stencil row in a grid-sized
 //!   row-difference scratch (two operations per stamp and row); a prefix sum along each
 //!   touched row span yields the counts, folds them into `q` and re-zeroes the scratch;
-//! - per obstacle and slice a bounding box and peak probability, which answer
-//!   `segment_risk_bound` without touching the grid.
+//! - per obstacle and slice a bounding box, peak probability and particle mean, which
+//!   answer `segment_risk_bound` without touching the grid (between two sparse slices each
+//!   box swept along the mean's move, where a read between them may look).
 //!
 //! The cost of an update is dominated by the number of cells an obstacle covers over the
 //! horizon (a Random-stage obstacle's cloud grows with time), and in particular by the
@@ -118,6 +124,9 @@ struct Contribution {
     /// Per slice `[x0, y0, x1, y1]` in metres (empty when x0 > x1), and peak probability.
     bbox_m: Vec<[f64; 4]>,
     max_p: Vec<f32>,
+    /// Per slice the particles' mean position, metres: a read between two sparse slices
+    /// follows the cloud by the mean's move between them ([`RiskMapConfig::sparse_fine`]).
+    centre_m: Vec<[f64; 2]>,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -191,6 +200,8 @@ pub struct RiskMap {
     stamp_gen: u32,
     /// The slice's occupied cells and their merged weight per sub-cell position.
     centres: Vec<(u32, [u32; SUB2])>,
+    /// The slice's particles' weighted sum of positions and total weight.
+    mean_acc: [f64; 3],
     /// Row-difference scratch of particle counts, `(nx + 1) * ny`, all zero between
     /// slices.
     diff: Vec<i32>,
@@ -284,6 +295,19 @@ fn for_each_cell(
 }
 
 impl Contribution {
+    /// How far the particles' mean moves from slice `k` to slice `k + 1`, metres (0 where
+    /// either slice has none).
+    #[inline]
+    fn mean_move(&self, k: usize) -> [f64; 2] {
+        let (a, b) = (self.centre_m[k], self.centre_m[k + 1]);
+        let d = [b[0] - a[0], b[1] - a[1]];
+        if d[0].is_finite() && d[1].is_finite() {
+            d
+        } else {
+            [0.0, 0.0]
+        }
+    }
+
     /// Slice `k`'s runs as (first cell within the slice, counts); none for a slice the
     /// contribution has no entry for (filtered, a NoFly disc).
     fn slice_runs(&self, k: usize) -> impl Iterator<Item = (usize, &[u16])> {
@@ -417,6 +441,7 @@ impl RiskMap {
             mark: vec![(0, 0); nx * ny],
             stamp_gen: 0,
             centres: Vec::new(),
+            mean_acc: [0.0; 3],
             diff: vec![0; (nx + 1) * ny],
             row_span: vec![(i32::MAX, i32::MIN); ny],
             rows_touched: Vec::new(),
@@ -640,7 +665,12 @@ impl RiskMap {
             x.capacity() * size_of::<T>()
         }
         let part = |c: &Contribution| {
-            v(&c.runs) + v(&c.counts) + v(&c.slice_start) + v(&c.bbox_m) + v(&c.max_p)
+            v(&c.runs)
+                + v(&c.counts)
+                + v(&c.slice_start)
+                + v(&c.bbox_m)
+                + v(&c.max_p)
+                + v(&c.centre_m)
         };
         self.contrib.values().map(part).sum::<usize>()
             + self.spare.iter().map(part).sum::<usize>()
@@ -673,6 +703,7 @@ impl RiskMap {
         c.slice_start.clear();
         c.bbox_m.clear();
         c.max_p.clear();
+        c.centre_m.clear();
         let r_m = o.radius_m + self.cfg.buffer_m;
         let t_end = self.t0_s + self.horizon_s();
         if !self.path.is_empty() {

@@ -1,5 +1,6 @@
-//! Reading the map: `risk(point, t)` (the worse of the two bracketing slices), whole
-//! slices for rendering, and the conservative segment bound the planner prunes with.
+//! Reading the map: `risk(point, t)` (the worse of the two bracketing slices; between two
+//! sparse slices each obstacle read where its cloud is at `t`), whole slices for rendering,
+//! and the conservative segment bound the planner prunes with.
 
 use super::RiskMap;
 use super::SliceView;
@@ -110,6 +111,21 @@ impl RiskMap {
         r.clamp(0.0, 1.0)
     }
 
+    /// `t_s` strictly between two sparse slices ([`RiskMapConfig::sparse_fine`]):
+    /// `Some((k, w))` with `t_k < t_s < t_(k+1)` and `w = (t_s - t_k) / dt`.
+    ///
+    /// [`RiskMapConfig::sparse_fine`]: super::RiskMapConfig::sparse_fine
+    #[inline]
+    pub(super) fn sparse_between(&self, t_s: f64) -> Option<(usize, f64)> {
+        let (k0, k1) = self.bracket(t_s);
+        (k1 != k0 && self.geo[k1].sparse).then(|| {
+            (
+                k0,
+                ((t_s - self.slice_time(k0)) * self.inv_dt).clamp(0.0, 1.0),
+            )
+        })
+    }
+
     /// The slices bracketing `t_s`: `(k, k)` at a slice time (or outside the horizon),
     /// else `(k, k + 1)` with `t_k < t_s < t_(k+1)`.
     #[inline]
@@ -133,9 +149,15 @@ impl RiskMap {
 
 impl RiskField for RiskMap {
     /// The worse of the two slices bracketing `t_s` (a 40 kt obstacle moves 10 m in half
-    /// a 1 s slice, more than the buffer: reading the nearest slice alone could miss it).
+    /// a 1 s slice, more than the buffer: reading the nearest slice alone could miss it);
+    /// between two sparse slices each obstacle is read where its cloud is at `t_s`, the
+    /// worse of the two slices each moved by the cloud's mean move.
     #[inline]
     fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
+        if let Some((k, w)) = self.sparse_between(t_s) {
+            let unfiltered = self.contrib.values().filter(|c| !c.filtered);
+            return self.between_risk_of(p_m, k, w, unfiltered).clamp(0.0, 1.0);
+        }
         self.worse_of_bracket(t_s, |k| self.slice_risk(p_m, k))
     }
 

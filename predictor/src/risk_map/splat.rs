@@ -132,11 +132,16 @@ impl RiskMap {
         }
         self.centres.clear();
         self.stamps.clear();
+        self.mean_acc = [0.0; 3];
     }
 
     /// Merges a particle into its cell and sub-cell position; a particle outside the grid
     /// is stamped on its own (its stencil may still reach the grid).
     fn add_particle(&mut self, p: [f64; 2], w: u32) {
+        let wf = f64::from(w);
+        self.mean_acc[0] += wf * p[0];
+        self.mean_acc[1] += wf * p[1];
+        self.mean_acc[2] += wf;
         let g = &self.cur;
         let fx = (p[0] - self.cfg.min_m[0]) * g.inv_cell;
         let fy = (p[1] - self.cfg.min_m[1]) * g.inv_cell;
@@ -332,5 +337,11 @@ impl RiskMap {
         c.slice_start.push(c.runs.len() as u32);
         c.bbox_m.push(bb);
         c.max_p.push(max_p);
+        let [sx, sy, sw] = self.mean_acc;
+        c.centre_m.push(if sw > 0.0 {
+            [sx / sw, sy / sw]
+        } else {
+            [f64::NAN; 2]
+        });
     }
 }
