@@ -44,7 +44,10 @@ use crate::termination::Termination;
 /// Risk-map slice interval, seconds. A read takes the worse of the two slices round its
 /// time, so a sphere is read up to one interval longer than it is there on each side of a
 /// gap; half a second (one second until 2026-11-30) keeps a 7 s window at a swept waypoint
-/// a 6-7 s window. The live map's build grows with the slice count (61 over 30 s).
+/// a 6-7 s window. (Within the first 15 s, the sparse fine slices, each obstacle is read
+/// where its cloud is between the two slices instead, since 2026-12-03:
+/// [`predictor::RiskMapConfig::sparse_fine`].) The live map's build grows with the slice
+/// count (61 over 30 s).
 pub const SLICE_DT_S: f64 = 0.5;
 
 /// An obstacle may leave its observed altitude band by this much within the horizon,

@@ -428,9 +428,11 @@ fn straight_track() -> Predictor {
 
 #[test]
 fn the_live_map_reads_a_passing_sphere_at_most_one_slice_longer_each_side_than_it_is_there() {
-    // A read takes the worse of the two slices round its time, so the map holds a point up
-    // to one slice interval before the sphere reaches it and after it has left: the
-    // interval bounds how much of a gap (a swept waypoint's window) reads as held.
+    // A read takes at worst the worse of the two slices round its time (within the first
+    // 15 s, the server's sparse slices, each obstacle where its cloud is between them), so
+    // the map holds a point up to one slice interval before the sphere reaches it and after
+    // it has left: the interval bounds how much of a gap (a swept waypoint's window) reads
+    // as held.
     let m = common::one_leg_mission([-100.0, -600.0], [3100.0, 600.0]);
     let cfg = ReplanConfig::default();
     let live = planner::replan::live_map(&straight_track(), &m, &cfg)
