@@ -105,13 +105,7 @@ impl RiskMap {
             let (dx, dy) = (p_m[0] - d.c[0], p_m[1] - d.c[1]);
             return dx * dx + dy * dy <= r * r;
         }
-        // Widened by a micrometre: a point within that of a box edge can round into the
-        // cell inside it (`p - min` rounds up to the edge's multiple of the cell).
-        let bb = c.bbox_m[k];
-        bb[0] - BOX_EPS_M <= p_m[0]
-            && p_m[0] <= bb[2] + BOX_EPS_M
-            && bb[1] - BOX_EPS_M <= p_m[1]
-            && p_m[1] <= bb[3] + BOX_EPS_M
+        meets(c.bbox_m[k], [p_m[0], p_m[1], p_m[0], p_m[1]])
     }
 
     /// Risk of slice `k` at `p_m` from the contributions `kept` (unfiltered ones, in the
@@ -228,12 +222,7 @@ impl RiskMap {
                 }
                 continue;
             }
-            let meets = |bb: [f64; 4]| {
-                bb[0] - BOX_EPS_M <= sb[2]
-                    && sb[0] <= bb[2] + BOX_EPS_M
-                    && bb[1] - BOX_EPS_M <= sb[3]
-                    && sb[1] <= bb[3] + BOX_EPS_M
-            };
+            let meets = |bb: [f64; 4]| meets(bb, sb);
             let mut peak: f32 = 0.0;
             for k in k0..=k1 {
                 if meets(c.bbox_m[k]) {
@@ -253,6 +242,17 @@ impl RiskMap {
         }
         (1.0 - keep_p).clamp(0.0, 1.0)
     }
+}
+
+/// Whether slice box `bb` meets box `sb` (`[x0, y0, x1, y1]`, a point as a box of no
+/// size), `bb` widened by [`BOX_EPS_M`]: a point within that of a box edge can round into
+/// the cell inside it (`p - min` rounds up to the edge's multiple of the cell).
+#[inline]
+fn meets(bb: [f64; 4], sb: [f64; 4]) -> bool {
+    bb[0] - BOX_EPS_M <= sb[2]
+        && sb[0] <= bb[2] + BOX_EPS_M
+        && bb[1] - BOX_EPS_M <= sb[3]
+        && sb[1] <= bb[3] + BOX_EPS_M
 }
 
 /// The bounding box of `bb` moved by `w d` for every `w` in `[0, 1]`.
