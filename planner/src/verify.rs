@@ -119,6 +119,15 @@ pub struct VerifyParams {
     /// longer a run and hit three spheres (two 23-24 m deep) against one, so it is not
     /// the default (README, "Flown inside the fly zone", under "How a plan is chosen").
     pub outside_weight: f64,
+    /// A turn onto a leg at least this far off the heading (the way to the leg's L1
+    /// reference point, degrees) is a reversal: which way round an autopilot flies it
+    /// depends on a few degrees of heading (wind, the telemetry's, where exactly it
+    /// switched), so the L1 path is flown on from there the other way round too and
+    /// checked as the paths are (cylinders and risk). Default 160 (issue 10: Webster Field
+    /// with spline spheres, seed 306: the plan was verified turning right, 177 degrees, at
+    /// a waypoint; the aircraft, 3 degrees off the model there, turned left into a sphere's
+    /// edge, 7 m deep). 180 or more: off.
+    pub reversal_deg: f64,
 }
 
 /// The judges' waypoint capture distance, 100 ft in metres.
@@ -144,6 +153,7 @@ impl Default for VerifyParams {
             overdue_far_risk_per_s: 0.01,
             overdue_far_risk_max: 1.0,
             outside_weight: 0.0,
+            reversal_deg: 160.0,
         }
     }
 }
@@ -733,7 +743,11 @@ pub fn verify_route_to_beat<'e>(
         },
     ];
     // The flown path of `guidance` until `until_s`, stopping once it is lost.
-    let fly_until = |acc: &mut Acc<'_>, guidance: Guidance, until_s: f64, polyline_done: bool| {
+    let fly_until = |acc: &mut Acc<'_>,
+                     guidance: Guidance,
+                     until_s: f64,
+                     polyline_done: bool,
+                     forks: Option<(&mut Vec<Flight>, f64)>| {
         fly(
             acc,
             env_at,
@@ -748,6 +762,7 @@ pub fn verify_route_to_beat<'e>(
             delay_credit_s,
             params.outside_weight,
             &|v| lost(v, polyline_done),
+            forks,
         );
     };
     // In danger (the rival's near-term peak above the danger risk) routes are ranked by
@@ -763,7 +778,13 @@ pub fn verify_route_to_beat<'e>(
         let mut probe = acc.clone();
         probe.hit.iter_mut().for_each(|h| *h = true);
         for guidance in guidances {
-            fly_until(&mut probe, guidance, horizon_end.min(near_end_s), false);
+            fly_until(
+                &mut probe,
+                guidance,
+                horizon_end.min(near_end_s),
+                false,
+                None,
+            );
             if lost(&probe.out, false) {
                 return true;
             }
@@ -831,11 +852,35 @@ pub fn verify_route_to_beat<'e>(
             acc.out.conflict = Some(Conflict::Unreachable { item: 0 });
         }
     }
+    let reversal_rad = params.reversal_deg.to_radians();
+    let mut forks = Vec::new();
     for guidance in guidances {
         if lost(&acc.out, true) {
             return None;
         }
-        fly_until(&mut acc, guidance, horizon_end, true);
+        let record = (matches!(guidance, Guidance::L1 { .. })
+            && reversal_rad < std::f64::consts::PI)
+            .then_some((&mut forks, reversal_rad));
+        fly_until(&mut acc, guidance, horizon_end, true, record);
+    }
+    // The reversals of the L1 path, turned the other way round.
+    for fork in forks {
+        if lost(&acc.out, true) {
+            return None;
+        }
+        fly_fork(
+            &mut acc,
+            env_at,
+            tail,
+            &bands,
+            speed_mps,
+            turn_radius_m,
+            step,
+            horizon_end,
+            guidances[1],
+            &|v| lost(v, true),
+            fork,
+        );
     }
     if lost(&acc.out, true) {
         return None;
@@ -862,9 +907,36 @@ enum Guidance {
     },
 }
 
+/// Where a flown path is, part-way: everything [`fly`] carries from one step to the next,
+/// so a path can be forked at a turn and the fork flown on from there.
+#[derive(Debug, Clone, Copy)]
+struct Flight {
+    p: Point,
+    /// ENU direction angle (counter-clockwise from east).
+    th: f64,
+    t: f64,
+    alt_prev: f64,
+    leg_from: Point,
+    /// Index in the tail of the item flown to.
+    i: usize,
+    s_m: f64,
+    progress: Progress,
+    /// Time by which item `i` must be reached.
+    deadline: f64,
+    /// Closest approach to item `i` so far (the L1 path's waypoint capture).
+    closest: f64,
+    /// Whether the next step is the first on its leg (where a turn's way is decided).
+    leg_start: bool,
+    /// The way this fork turns (+1 left, -1 right) while the turn it was forked at lasts.
+    forced: Option<f64>,
+    steps: u32,
+}
+
 /// Simulates a flown path (`guidance` at bounded turn rate) and checks it up to
 /// `horizon_end` (cylinders and risk), leg `i` read within `bands[i]` (the polyline's,
-/// [`leg_bands`]).
+/// [`leg_bands`]). With `forks`, an L1 path records there, at the start of every leg whose
+/// turn is a reversal (the way to the leg at least `reversal_rad` off the heading), the
+/// flight turning the other way ([`fly_fork`]).
 #[allow(clippy::too_many_arguments)]
 fn fly<'e>(
     acc: &mut Acc<'_>,
@@ -880,39 +952,121 @@ fn fly<'e>(
     delay_credit_s: f64,
     outside_weight: f64,
     lost: &dyn Fn(&Verification) -> bool,
+    forks: Option<(&mut Vec<Flight>, f64)>,
 ) {
     if tail.is_empty() || turn_radius_m <= 0.0 {
         return;
     }
+    let circle_s = std::f64::consts::TAU * turn_radius_m / speed_mps;
+    let mut flight = Flight {
+        p: state.p_m,
+        th: std::f64::consts::FRAC_PI_2 - state.heading_rad,
+        t: state.t_s,
+        alt_prev: state.alt_m,
+        leg_from: state.p_m,
+        i: 0,
+        s_m: 0.0,
+        progress: Progress::new(state, speed_mps, delay_credit_s),
+        deadline: state.t_s + dist(state.p_m, tail[0].p_m) / speed_mps + 2.0 * circle_s + 5.0,
+        closest: f64::INFINITY,
+        leg_start: true,
+        forced: None,
+        steps: 0,
+    };
+    let judge_first = match guidance {
+        Guidance::L1 { capture_m, .. } => {
+            !may_have_captured(flight.p, flight.th, tail[0].p_m, capture_m, speed_mps)
+        }
+        Guidance::Pursuit => false,
+    };
+    acc.restart_path();
+    fly_on(
+        acc,
+        env_at,
+        tail,
+        bands,
+        speed_mps,
+        turn_radius_m,
+        step,
+        horizon_end,
+        guidance,
+        outside_weight,
+        lost,
+        &mut flight,
+        judge_first,
+        forks,
+    );
+}
+
+/// Flies a fork recorded by [`fly`] on from where it was recorded, turning the other way
+/// round at its reversal, and checks it as [`fly`] checks (cylinders and risk; no
+/// waypoint captures, no excursion metres, no unreachable items: those are the path's
+/// it was forked from).
+#[allow(clippy::too_many_arguments)]
+fn fly_fork<'e>(
+    acc: &mut Acc<'_>,
+    env_at: &impl EnvAt<'e>,
+    tail: &[StackItem],
+    bands: &[[f64; 2]],
+    speed_mps: f64,
+    turn_radius_m: f64,
+    step: f64,
+    horizon_end: f64,
+    guidance: Guidance,
+    lost: &dyn Fn(&Verification) -> bool,
+    mut flight: Flight,
+) {
+    acc.restart_path();
+    fly_on(
+        acc,
+        env_at,
+        tail,
+        bands,
+        speed_mps,
+        turn_radius_m,
+        step,
+        horizon_end,
+        guidance,
+        0.0,
+        lost,
+        &mut flight,
+        false,
+        None,
+    );
+}
+
+/// The stepping of [`fly`] and [`fly_fork`] from `f` on.
+#[allow(clippy::too_many_arguments)]
+fn fly_on<'e>(
+    acc: &mut Acc<'_>,
+    env_at: &impl EnvAt<'e>,
+    tail: &[StackItem],
+    bands: &[[f64; 2]],
+    speed_mps: f64,
+    turn_radius_m: f64,
+    step: f64,
+    horizon_end: f64,
+    guidance: Guidance,
+    outside_weight: f64,
+    lost: &dyn Fn(&Verification) -> bool,
+    f: &mut Flight,
+    judge_first: bool,
+    mut forks: Option<(&mut Vec<Flight>, f64)>,
+) {
+    let is_fork = f.forced.is_some();
     let dt = step / speed_mps;
     let w_max = speed_mps / turn_radius_m;
-    let mut p = state.p_m;
-    // ENU direction angle (counter-clockwise from east) of the compass heading.
-    let mut th = std::f64::consts::FRAC_PI_2 - state.heading_rad;
-    let mut t = state.t_s;
-    let mut alt_prev = state.alt_m;
-    let mut leg_from = state.p_m;
-    let mut i = 0;
-    let mut s_m = 0.0;
-    let mut progress = Progress::new(state, speed_mps, delay_credit_s);
-    acc.restart_path();
-    // Time allowed to reach an item: the straight time plus two full circles.
     let circle_s = std::f64::consts::TAU * turn_radius_m / speed_mps;
-    let mut deadline = t + dist(p, tail[0].p_m) / speed_mps + 2.0 * circle_s + 5.0;
-    // Closest approach to the current item so far (the L1 path's waypoint capture).
-    let mut closest = f64::INFINITY;
     let capture_m = match guidance {
-        Guidance::L1 { capture_m, .. } => Some(capture_m),
-        Guidance::Pursuit => None,
+        Guidance::L1 { capture_m, .. } if !is_fork => Some(capture_m),
+        _ => None,
     };
-    let judge_first =
-        capture_m.is_some_and(|c| !may_have_captured(p, th, tail[0].p_m, c, speed_mps));
     // The item `lead` was computed for (it depends on the leg and the next item only).
     let (mut lead_for, mut lead) = (usize::MAX, 0.0);
-    let mut steps = 0u32;
-    while i < tail.len() && t <= horizon_end {
+    while f.i < tail.len() && f.t <= horizon_end {
+        let i = f.i;
         let it = tail[i];
-        let alt = alt_prev.min(it.alt_m);
+        let alt = f.alt_prev.min(it.alt_m);
         let env = env_at(alt).in_band(bands[i]);
         // Pursuit switches early by the fillet's tangent length toward the next item; L1
         // at the acceptance radius.
@@ -921,9 +1075,9 @@ fn fly<'e>(
             lead = match (guidance, tail.get(i + 1)) {
                 (Guidance::L1 { acceptance_m, .. }, _) => acceptance_m,
                 (Guidance::Pursuit, Some(next)) => {
-                    let a = sub(it.p_m, leg_from);
+                    let a = sub(it.p_m, f.leg_from);
                     let b = sub(next.p_m, it.p_m);
-                    let (la, lb) = (dist(leg_from, it.p_m), dist(it.p_m, next.p_m));
+                    let (la, lb) = (dist(f.leg_from, it.p_m), dist(it.p_m, next.p_m));
                     if la > 1e-6 && lb > 1e-6 {
                         let cosang = ((a[0] * b[0] + a[1] * b[1]) / (la * lb)).clamp(-1.0, 1.0);
                         let ang = cosang.acos();
@@ -935,39 +1089,40 @@ fn fly<'e>(
                 (Guidance::Pursuit, None) => 0.0,
             };
         }
-        let d = dist(p, it.p_m);
-        closest = closest.min(d);
+        let d = dist(f.p, it.p_m);
+        f.closest = f.closest.min(d);
         let passed = {
-            let leg = sub(it.p_m, leg_from);
-            let r = sub(p, it.p_m);
-            leg[0] * r[0] + leg[1] * r[1] > 0.0 && dist(leg_from, it.p_m) > 1e-6
+            let leg = sub(it.p_m, f.leg_from);
+            let r = sub(f.p, it.p_m);
+            leg[0] * r[0] + leg[1] * r[1] > 0.0 && dist(f.leg_from, it.p_m) > 1e-6
         };
         if d <= lead.max(step) || passed {
             if let Some(c) = capture_m
                 && it.is_fixed()
-                && closest > c
+                && f.closest > c
                 && (i > 0 || judge_first)
             {
                 acc.out.missed_waypoints += 1;
                 acc.out.first_missed.get_or_insert(i);
             }
-            closest = f64::INFINITY;
-            progress.pass(&it);
-            leg_from = it.p_m;
-            alt_prev = it.low_alt_after(alt_prev);
-            i += 1;
+            f.closest = f64::INFINITY;
+            f.progress.pass(&it);
+            f.leg_from = it.p_m;
+            f.alt_prev = it.low_alt_after(f.alt_prev);
+            f.i += 1;
+            f.leg_start = true;
             if lost(&acc.out) {
                 return;
             }
-            if let Some(n) = tail.get(i) {
-                deadline = t + dist(p, n.p_m) / speed_mps + 2.0 * circle_s + 5.0;
+            if let Some(n) = tail.get(f.i) {
+                f.deadline = f.t + dist(f.p, n.p_m) / speed_mps + 2.0 * circle_s + 5.0;
             }
             continue;
         }
-        if t > deadline {
+        if f.t > f.deadline {
             // A fixed item the aircraft cannot turn onto is the situation's, not the plan's
             // (the autopilot loops round to it); an inserted one is the plan's fault.
-            if it.kind == ItemKind::Avoid && acc.out.unreachable.is_none() {
+            if !is_fork && it.kind == ItemKind::Avoid && acc.out.unreachable.is_none() {
                 acc.out.unreachable = Some(i);
                 if acc.out.conflict.is_none() {
                     acc.out.conflict = Some(Conflict::Unreachable { item: i });
@@ -977,33 +1132,52 @@ fn fly<'e>(
         }
         let w = match guidance {
             // Pursuit: turn toward the item at most at w_max.
-            Guidance::Pursuit => (wrap(bearing(p, it.p_m) - th) / dt).clamp(-w_max, w_max),
+            Guidance::Pursuit => (wrap(bearing(f.p, it.p_m) - f.th) / dt).clamp(-w_max, w_max),
             Guidance::L1 { l1_m, .. } => {
-                let reference = l1_reference(p, leg_from, it.p_m, l1_m);
-                let eta = wrap(bearing(p, reference) - th);
-                if eta.abs() > std::f64::consts::FRAC_PI_2 {
+                let reference = l1_reference(f.p, f.leg_from, it.p_m, l1_m);
+                let eta = wrap(bearing(f.p, reference) - f.th);
+                if std::mem::take(&mut f.leg_start)
+                    && let Some((forks, reversal_rad)) = forks.as_mut()
+                    && eta.abs() >= *reversal_rad
+                {
+                    // A reversal: which way the autopilot turns depends on a few degrees
+                    // of heading (wind, the telemetry's), so the other way is flown too.
+                    let mut fork = *f;
+                    fork.forced = Some(if eta < 0.0 { 1.0 } else { -1.0 });
+                    forks.push(fork);
+                }
+                if f.forced
+                    .is_some_and(|way| eta.abs() <= std::f64::consts::FRAC_PI_2 || eta * way > 0.0)
+                {
+                    // The forced way round has become the short way: steer as usual on.
+                    f.forced = None;
+                }
+                if let Some(way) = f.forced {
+                    w_max * way
+                } else if eta.abs() > std::f64::consts::FRAC_PI_2 {
                     w_max.copysign(eta)
                 } else {
                     (2.0 * speed_mps / l1_m * eta.sin()).clamp(-w_max, w_max)
                 }
             }
         };
-        let mid = th + 0.5 * w * dt;
-        p = [p[0] + step * mid.cos(), p[1] + step * mid.sin()];
-        th += w * dt;
-        t += dt;
-        s_m += step;
-        acc.cylinders(alt, p, t, s_m);
-        let r = acc.risk(&env, p, t, progress.at(p));
+        let mid = f.th + 0.5 * w * dt;
+        f.p = [f.p[0] + step * mid.cos(), f.p[1] + step * mid.sin()];
+        f.th += w * dt;
+        f.t += dt;
+        f.s_m += step;
+        let p = f.p;
+        acc.cylinders(alt, p, f.t, f.s_m);
+        let r = acc.risk(&env, p, f.t, f.progress.at(p));
         if guidance == Guidance::Pursuit {
             acc.out.exposure_m += r * step;
-        } else if outside_weight > 0.0 && !env.zones.contains(p) {
+        } else if !is_fork && outside_weight > 0.0 && !env.zones.contains(p) {
             // The autopilot's overshoot out of bounds (what the judges count).
             acc.out.flown_outside_m += step;
             acc.out.outside_penalty_m += outside_weight * step;
         }
-        steps += 1;
-        if steps.is_multiple_of(32) && lost(&acc.out) {
+        f.steps += 1;
+        if f.steps.is_multiple_of(32) && lost(&acc.out) {
             return;
         }
     }
@@ -1141,10 +1315,73 @@ mod tests {
             radius_m: 15.0,
             top_m: 200.0,
         }];
-        let a = check(&NoRisk, &cyl, &state(0.0), &tail);
-        let b = check(&NoRisk, &east, &state(0.0), &tail);
+        // A turn straight back is a reversal: flown both ways round, both cylinders are
+        // met; with the reversal check off (the model's own way round only), exactly one.
+        let one_way = VerifyParams {
+            reversal_deg: 180.0,
+            ..VerifyParams::default()
+        };
+        let a = check_with(&NoRisk, &cyl, &state(0.0), &tail, &one_way);
+        let b = check_with(&NoRisk, &east, &state(0.0), &tail, &one_way);
         // The polyline (straight south) touches neither; the turn sweeps exactly one.
         assert_eq!(a.cylinder_hits + b.cylinder_hits, 1, "{a:?} {b:?}");
+        let a = check(&NoRisk, &cyl, &state(0.0), &tail);
+        let b = check(&NoRisk, &east, &state(0.0), &tail);
+        assert_eq!((a.cylinder_hits, b.cylinder_hits), (1, 1), "{a:?} {b:?}");
+    }
+
+    /// Risk 1 within 30 m of (60, 320), at every time: east of a waypoint at (0, 300).
+    struct EastOfTheTurn;
+    impl RiskField for EastOfTheTurn {
+        fn risk(&self, p: [f64; 2], _t: f64) -> f64 {
+            if dist(p, [60.0, 320.0]) < 30.0 {
+                1.0
+            } else {
+                0.0
+            }
+        }
+    }
+
+    #[test]
+    fn a_reversal_at_a_waypoint_is_flown_both_ways_round_and_a_lesser_turn_the_short_way() {
+        // North 300 m to a waypoint at (0, 300), then back south-south-west to (-20, 0):
+        // 176 degrees to the left. The model turns left (west), but a few degrees of
+        // heading turn an autopilot right, east, through the risk there (Webster Field,
+        // spline seed 306: 7 m into a sphere's edge). Neither the polyline nor a left
+        // turn comes within 30 m of the risk.
+        let route = |back_x: f64| {
+            [
+                StackItem::mission(0, [0.0, 300.0], 100.0),
+                StackItem::mission(1, [back_x, 0.0], 100.0),
+            ]
+        };
+        let one_way = VerifyParams {
+            reversal_deg: 180.0,
+            ..VerifyParams::default()
+        };
+        let reversal = route(-20.0);
+        let model = check_with(&EastOfTheTurn, &[], &state(0.0), &reversal, &one_way);
+        assert_eq!(model.peak_risk, 0.0, "{model:?}");
+        assert!(model.is_clear(0.05), "{model:?}");
+        let both = check(&EastOfTheTurn, &[], &state(0.0), &reversal);
+        assert_eq!(both.peak_risk, 1.0, "{both:?}");
+        assert!(!both.is_clear(0.05), "{both:?}");
+        assert!(matches!(both.conflict, Some(Conflict::Risk { p_m, .. }) if p_m[0] > 30.0));
+        // The fork is checked for risk only: what the judges score of the way the model
+        // flies (captures) is the model's.
+        assert_eq!(both.missed_waypoints, model.missed_waypoints);
+        assert_eq!(both.length_m, model.length_m);
+        // 150 degrees to the left is no reversal: only the short way round is flown.
+        let lesser = route(-170.0);
+        let v = check(&EastOfTheTurn, &[], &state(0.0), &lesser);
+        assert_eq!(v.peak_risk, 0.0, "{v:?}");
+        // ... unless the reversal angle is set below it.
+        let wide = VerifyParams {
+            reversal_deg: 140.0,
+            ..VerifyParams::default()
+        };
+        let v = check_with(&EastOfTheTurn, &[], &state(0.0), &lesser, &wide);
+        assert_eq!(v.peak_risk, 1.0, "{v:?}");
     }
 
     #[test]
