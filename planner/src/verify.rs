@@ -742,28 +742,21 @@ pub fn verify_route_to_beat<'e>(
                 .max(params.acceptance_m.min(JUDGE_CAPTURE_M)),
         },
     ];
-    // The flown path of `guidance` until `until_s`, stopping once it is lost.
-    let fly_until = |acc: &mut Acc<'_>,
-                     guidance: Guidance,
-                     until_s: f64,
-                     polyline_done: bool,
-                     forks: Option<(&mut Vec<Flight>, f64)>| {
-        fly(
-            acc,
-            env_at,
-            state,
-            tail,
-            &bands,
-            speed_mps,
-            turn_radius_m,
-            step,
-            until_s,
-            guidance,
-            delay_credit_s,
-            params.outside_weight,
-            &|v| lost(v, polyline_done),
-            forks,
-        );
+    // The flown path of `guidance` until `until_s`, stopping once it is lost (`lost` with
+    // the polyline done or not).
+    let lost_done = |v: &Verification| lost(v, true);
+    let lost_early = |v: &Verification| lost(v, false);
+    let course = Course {
+        env_at,
+        tail,
+        bands: &bands,
+        speed_mps,
+        turn_radius_m,
+        step,
+        until_s: horizon_end,
+        guidance: guidances[0],
+        outside_weight: params.outside_weight,
+        lost: &lost_done,
     };
     // In danger (the rival's near-term peak above the danger risk) routes are ranked by
     // their near window first, and the flown path's part of it comes after the whole
@@ -778,13 +771,13 @@ pub fn verify_route_to_beat<'e>(
         let mut probe = acc.clone();
         probe.hit.iter_mut().for_each(|h| *h = true);
         for guidance in guidances {
-            fly_until(
-                &mut probe,
+            let near = Course {
                 guidance,
-                horizon_end.min(near_end_s),
-                false,
-                None,
-            );
+                until_s: horizon_end.min(near_end_s),
+                lost: &lost_early,
+                ..course
+            };
+            fly(&mut probe, &near, state, delay_credit_s, None);
             if lost(&probe.out, false) {
                 return true;
             }
@@ -861,26 +854,27 @@ pub fn verify_route_to_beat<'e>(
         let record = (matches!(guidance, Guidance::L1 { .. })
             && reversal_rad < std::f64::consts::PI)
             .then_some((&mut forks, reversal_rad));
-        fly_until(&mut acc, guidance, horizon_end, true, record);
+        fly(
+            &mut acc,
+            &Course { guidance, ..course },
+            state,
+            delay_credit_s,
+            record,
+        );
     }
-    // The reversals of the L1 path, turned the other way round.
-    for fork in forks {
+    // The reversals of the L1 path, turned the other way round, checked for cylinders and
+    // risk only (the captures, excursion metres and unreachable items are the L1 path's).
+    let turned = Course {
+        guidance: guidances[1],
+        outside_weight: 0.0,
+        ..course
+    };
+    for mut fork in forks {
         if lost(&acc.out, true) {
             return None;
         }
-        fly_fork(
-            &mut acc,
-            env_at,
-            tail,
-            &bands,
-            speed_mps,
-            turn_radius_m,
-            step,
-            horizon_end,
-            guidances[1],
-            &|v| lost(v, true),
-            fork,
-        );
+        acc.restart_path();
+        fly_on(&mut acc, &turned, &mut fork, false, None);
     }
     if lost(&acc.out, true) {
         return None;
@@ -932,28 +926,43 @@ struct Flight {
     steps: u32,
 }
 
-/// Simulates a flown path (`guidance` at bounded turn rate) and checks it up to
-/// `horizon_end` (cylinders and risk), leg `i` read within `bands[i]` (the polyline's,
-/// [`leg_bands`]). With `forks`, an L1 path records there, at the start of every leg whose
-/// turn is a reversal (the way to the leg at least `reversal_rad` off the heading), the
-/// flight turning the other way ([`fly_fork`]).
-#[allow(clippy::too_many_arguments)]
-fn fly<'e>(
-    acc: &mut Acc<'_>,
-    env_at: &impl EnvAt<'e>,
-    state: &AircraftState,
-    tail: &[StackItem],
-    bands: &[[f64; 2]],
+/// What a flown path is flown along and checked against: the route (`tail`, leg `i` read
+/// within `bands[i]`, the polyline's [`leg_bands`]), the aircraft, the check spacing, the
+/// time the path stops at, the guidance, the weight of its metres out of bounds and when a
+/// partial verification is lost.
+struct Course<'c, E> {
+    env_at: &'c E,
+    tail: &'c [StackItem],
+    bands: &'c [[f64; 2]],
     speed_mps: f64,
     turn_radius_m: f64,
     step: f64,
-    horizon_end: f64,
+    until_s: f64,
     guidance: Guidance,
-    delay_credit_s: f64,
     outside_weight: f64,
-    lost: &dyn Fn(&Verification) -> bool,
+    lost: &'c dyn Fn(&Verification) -> bool,
+}
+
+impl<E> Clone for Course<'_, E> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<E> Copy for Course<'_, E> {}
+
+/// Simulates a flown path (`course.guidance` at bounded turn rate) from `state` and checks
+/// it up to `course.until_s` (cylinders and risk). With `forks`, an L1 path records there,
+/// at the start of every leg whose turn is a reversal (the way to the leg's L1 reference
+/// point at least the given angle, radians, off the heading), the flight turning the other
+/// way round from there, for [`fly_on`] to fly on.
+fn fly<'e, E: EnvAt<'e>>(
+    acc: &mut Acc<'_>,
+    course: &Course<'_, E>,
+    state: &AircraftState,
+    delay_credit_s: f64,
     forks: Option<(&mut Vec<Flight>, f64)>,
 ) {
+    let (tail, speed_mps, turn_radius_m) = (course.tail, course.speed_mps, course.turn_radius_m);
     if tail.is_empty() || turn_radius_m <= 0.0 {
         return;
     }
@@ -973,86 +982,39 @@ fn fly<'e>(
         forced: None,
         steps: 0,
     };
-    let judge_first = match guidance {
+    let judge_first = match course.guidance {
         Guidance::L1 { capture_m, .. } => {
             !may_have_captured(flight.p, flight.th, tail[0].p_m, capture_m, speed_mps)
         }
         Guidance::Pursuit => false,
     };
     acc.restart_path();
-    fly_on(
-        acc,
-        env_at,
-        tail,
-        bands,
-        speed_mps,
-        turn_radius_m,
-        step,
-        horizon_end,
-        guidance,
-        outside_weight,
-        lost,
-        &mut flight,
-        judge_first,
-        forks,
-    );
+    fly_on(acc, course, &mut flight, judge_first, forks);
 }
 
-/// Flies a fork recorded by [`fly`] on from where it was recorded, turning the other way
-/// round at its reversal, and checks it as [`fly`] checks (cylinders and risk; no
-/// waypoint captures, no excursion metres, no unreachable items: those are the path's
-/// it was forked from).
-#[allow(clippy::too_many_arguments)]
-fn fly_fork<'e>(
+/// The stepping of [`fly`] from `f` on; a fork ([`Flight::forced`] set) turns its way
+/// round until that is the short way, and is checked for cylinders and risk only (no
+/// waypoint captures, excursion metres or unreachable items: those are the path's it was
+/// forked from).
+fn fly_on<'e, E: EnvAt<'e>>(
     acc: &mut Acc<'_>,
-    env_at: &impl EnvAt<'e>,
-    tail: &[StackItem],
-    bands: &[[f64; 2]],
-    speed_mps: f64,
-    turn_radius_m: f64,
-    step: f64,
-    horizon_end: f64,
-    guidance: Guidance,
-    lost: &dyn Fn(&Verification) -> bool,
-    mut flight: Flight,
-) {
-    acc.restart_path();
-    fly_on(
-        acc,
-        env_at,
-        tail,
-        bands,
-        speed_mps,
-        turn_radius_m,
-        step,
-        horizon_end,
-        guidance,
-        0.0,
-        lost,
-        &mut flight,
-        false,
-        None,
-    );
-}
-
-/// The stepping of [`fly`] and [`fly_fork`] from `f` on.
-#[allow(clippy::too_many_arguments)]
-fn fly_on<'e>(
-    acc: &mut Acc<'_>,
-    env_at: &impl EnvAt<'e>,
-    tail: &[StackItem],
-    bands: &[[f64; 2]],
-    speed_mps: f64,
-    turn_radius_m: f64,
-    step: f64,
-    horizon_end: f64,
-    guidance: Guidance,
-    outside_weight: f64,
-    lost: &dyn Fn(&Verification) -> bool,
+    course: &Course<'_, E>,
     f: &mut Flight,
     judge_first: bool,
     mut forks: Option<(&mut Vec<Flight>, f64)>,
 ) {
+    let Course {
+        env_at,
+        tail,
+        bands,
+        speed_mps,
+        turn_radius_m,
+        step,
+        until_s: horizon_end,
+        guidance,
+        outside_weight,
+        lost,
+    } = *course;
     let is_fork = f.forced.is_some();
     let dt = step / speed_mps;
     let w_max = speed_mps / turn_radius_m;
