@@ -700,6 +700,68 @@ fn cornered_in_the_fly_zone_the_plan_escapes_out_of_it_rather_than_into_a_sphere
     );
 }
 
+/// [`Sweepers`] read at a fraction of their risk: the cloud of a fast turner whose every
+/// way is about as likely, a fifth of its particles where each disc is.
+struct Faint(f64, Sweepers);
+
+impl predictor::RiskField for Faint {
+    fn risk(&self, p: [f64; 2], t: f64) -> f64 {
+        self.0 * predictor::RiskField::risk(&self.1, p, t)
+    }
+}
+
+#[test]
+fn a_near_term_risk_of_a_fifth_is_escaped_from_not_flown_into() {
+    // The corridor of the test above, its spheres read at risk 0.2: between the default
+    // danger risk (0.12) and the 0.25 it was until 2026-12-04. The hits left on Webster
+    // Field with mixed spheres were fast spheres turning toward the aircraft, their
+    // near-term peak at 0.12-0.15 for seconds before it rose to 1 (README, "Escape from a
+    // near-term risk of 0.12").
+    let mut mission = common::one_leg_mission([-1000.0, -40.0], [3000.0, 40.0]);
+    mission.waypoints = common::waypoints_at_100m(&[[-500.0, 0.0], [2000.0, 0.0]]);
+    let stack = mission_stack(&mission);
+    let spheres = Sweepers(vec![
+        Sweeper {
+            p0: [230.0, 0.0],
+            v: [-12.0, 0.0],
+            r_m: 100.0,
+        },
+        Sweeper {
+            p0: [-230.0, 0.0],
+            v: [12.0, 0.0],
+            r_m: 100.0,
+        },
+    ]);
+    let faint = Faint(0.2, spheres);
+    let req = static_request(&mission, &stack);
+    // Checked independently: the route flown at 20 m/s, every metre, against both discs.
+    let gap = |p: &planner::Plan| {
+        let r = route(&req.state, &p.items, p.current_index);
+        faint
+            .1
+            .0
+            .iter()
+            .map(|s| clearance(&r, 0.0, 20.0, s.r_m, |t| s.at(t)))
+            .fold(f64::INFINITY, f64::min)
+    };
+    let p = plan(&req, &faint).unwrap();
+    assert!(
+        gap(&p) > 0.0,
+        "passes {:.1} m inside a disc: {p:?}",
+        gap(&p)
+    );
+    assert!(p.verification.near_peak_risk < 0.2, "{p:?}");
+    // At the old danger risk a near-term risk of 0.2 is no danger: the plan stays in the
+    // corridor and flies into a disc.
+    let params = PlanParams {
+        danger_risk: 0.25,
+        ..PlanParams::default()
+    };
+    let q = plan(&PlanRequest { params, ..req }, &faint).unwrap();
+    assert!(gap(&q) < 0.0, "clear {:.1} m at 0.25: {q:?}", gap(&q));
+    assert!((q.verification.near_peak_risk - 0.2).abs() < 1e-9, "{q:?}");
+}
+
 /// Seconds that the route flown at `speed` from `t0` spends inside a disc of radius `r`
 /// moving as `at(t)`, over the first `within_s` seconds, sampled every metre.
 fn time_inside(

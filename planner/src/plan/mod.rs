@@ -196,9 +196,13 @@ pub struct PlanParams {
     /// by that near-term risk before fly-zone exits ([`Verification::better_than`]): a hit
     /// costs more than a boundary excursion. Escapes are tried only with the aircraft in a
     /// fly zone or within reach of one (two turn radii plus the longest escape run). Above
-    /// 1: off. Default 0.25 (issue 10,
-    /// Webster Field with 10 mixed spheres, 80 runs: 67 clean -> 79 clean, time outside
-    /// the fly zone 28 -> 36 s a run).
+    /// 1: off. Default 0.12 (issue 10: 0.25 until 2026-12-04, from Webster Field with 10
+    /// mixed spheres, 80 runs: 67 clean -> 79 clean, time outside the fly zone 28 -> 36 s
+    /// a run; then the hits left on Webster with mixed spheres were fast spheres turning
+    /// toward the aircraft with the near-term peak at 0.12-0.15 for seconds before it rose
+    /// to 1; at 0.12, over 1,000 Webster and `mixed` runs, hits 5 -> 2, flights 1.5 s a
+    /// run longer on Webster with mixed spheres: README, "Escape from a near-term risk of
+    /// 0.12").
     pub danger_risk: f64,
     /// Peak risk within [`VerifyParams::early_s`] (15 s) above which the escape manoeuvres
     /// of [`PlanParams::danger_risk`] are tried though the near window is clear: a likely
@@ -273,7 +277,7 @@ impl Default for PlanParams {
             hold: false,
             hold_overdue: true,
             hold_overdue_max_s: 120.0,
-            danger_risk: 0.25,
+            danger_risk: 0.12,
             early_danger_risk: 2.0,
             danger_commit_risk: 0.15,
             danger_commit_exposure: 0.25,
