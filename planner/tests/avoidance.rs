@@ -644,16 +644,12 @@ impl predictor::RiskField for Sweepers {
     }
 }
 
-#[test]
-fn cornered_in_the_fly_zone_the_plan_escapes_out_of_it_rather_than_into_a_sphere() {
-    // The fly zone is a corridor 80 m wide (y from -40 to 40) that the aircraft flies east
-    // along its middle at 20 m/s. Two spheres of 100 m radius, wider than the corridor,
-    // close in along it from 230 m ahead and behind at 12 m/s: within the 10 s near window
-    // the gap between them shrinks to 36 m, less than any turn of a 40 m turn radius, so
-    // every route inside the corridor flies into one. Turning out of the corridor is clear.
+/// The corridor of the escape tests: a fly zone 80 m wide (y from -40 to 40) flown east
+/// along its middle, and two discs of 100 m radius, wider than the corridor, closing in
+/// along it from 230 m ahead and behind at 12 m/s.
+fn corridor() -> (Mission, Sweepers) {
     let mut mission = common::one_leg_mission([-1000.0, -40.0], [3000.0, 40.0]);
     mission.waypoints = common::waypoints_at_100m(&[[-500.0, 0.0], [2000.0, 0.0]]);
-    let stack = mission_stack(&mission);
     let spheres = Sweepers(vec![
         Sweeper {
             p0: [230.0, 0.0],
@@ -666,16 +662,31 @@ fn cornered_in_the_fly_zone_the_plan_escapes_out_of_it_rather_than_into_a_sphere
             r_m: 100.0,
         },
     ]);
+    (mission, spheres)
+}
+
+/// Checked independently of the planner: the smallest gap between `p`'s route, flown at
+/// 20 m/s from `req`'s state and sampled every metre, and any of `spheres` (negative inside).
+fn corridor_gap(req: &PlanRequest, p: &planner::Plan, spheres: &Sweepers) -> f64 {
+    let r = route(&req.state, &p.items, p.current_index);
+    spheres
+        .0
+        .iter()
+        .map(|s| clearance(&r, 0.0, 20.0, s.r_m, |t| s.at(t)))
+        .fold(f64::INFINITY, f64::min)
+}
+
+#[test]
+fn cornered_in_the_fly_zone_the_plan_escapes_out_of_it_rather_than_into_a_sphere() {
+    // The fly zone is a corridor 80 m wide (y from -40 to 40) that the aircraft flies east
+    // along its middle at 20 m/s. Two spheres of 100 m radius, wider than the corridor,
+    // close in along it from 230 m ahead and behind at 12 m/s: within the 10 s near window
+    // the gap between them shrinks to 36 m, less than any turn of a 40 m turn radius, so
+    // every route inside the corridor flies into one. Turning out of the corridor is clear.
+    let (mission, spheres) = corridor();
+    let stack = mission_stack(&mission);
     let req = static_request(&mission, &stack);
-    // Checked independently: the route flown at 20 m/s, every metre, against both spheres.
-    let gap = |p: &planner::Plan| {
-        let r = route(&req.state, &p.items, p.current_index);
-        spheres
-            .0
-            .iter()
-            .map(|s| clearance(&r, 0.0, 20.0, s.r_m, |t| s.at(t)))
-            .fold(f64::INFINITY, f64::min)
-    };
+    let gap = |p: &planner::Plan| corridor_gap(&req, p, &spheres);
     let p = plan(&req, &spheres).unwrap();
     assert!(
         gap(&p) > 0.0,
@@ -717,33 +728,11 @@ fn a_near_term_risk_of_a_fifth_is_escaped_from_not_flown_into() {
     // Field with mixed spheres were fast spheres turning toward the aircraft, their
     // near-term peak at 0.12-0.15 for seconds before it rose to 1 (README, "Escape from a
     // near-term risk of 0.12").
-    let mut mission = common::one_leg_mission([-1000.0, -40.0], [3000.0, 40.0]);
-    mission.waypoints = common::waypoints_at_100m(&[[-500.0, 0.0], [2000.0, 0.0]]);
+    let (mission, spheres) = corridor();
     let stack = mission_stack(&mission);
-    let spheres = Sweepers(vec![
-        Sweeper {
-            p0: [230.0, 0.0],
-            v: [-12.0, 0.0],
-            r_m: 100.0,
-        },
-        Sweeper {
-            p0: [-230.0, 0.0],
-            v: [12.0, 0.0],
-            r_m: 100.0,
-        },
-    ]);
     let faint = Faint(0.2, spheres);
     let req = static_request(&mission, &stack);
-    // Checked independently: the route flown at 20 m/s, every metre, against both discs.
-    let gap = |p: &planner::Plan| {
-        let r = route(&req.state, &p.items, p.current_index);
-        faint
-            .1
-            .0
-            .iter()
-            .map(|s| clearance(&r, 0.0, 20.0, s.r_m, |t| s.at(t)))
-            .fold(f64::INFINITY, f64::min)
-    };
+    let gap = |p: &planner::Plan| corridor_gap(&req, p, &faint.1);
     let p = plan(&req, &faint).unwrap();
     assert!(
         gap(&p) > 0.0,
