@@ -268,9 +268,7 @@ fn turn_before(
         .rev()
         .map_while(|i| (t - obs[i].t_s <= 2.0 * lag_s).then_some(i))
         .find_map(|i| frames[i].map(|f| (i, f)))?;
-    let d = (heading_rad - fi.heading_rad + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-        - std::f64::consts::PI;
-    Some(d / (t - obs[i].t_s))
+    Some(geom::wrap_pi(heading_rad - fi.heading_rad) / (t - obs[i].t_s))
 }
 
 /// The frame at observation `j` from the observations of the last `heading_window_s` up to
@@ -665,13 +663,9 @@ impl<'a> ReplayParticles<'a> {
     /// anchor about `now_radps`, the bandwidth by Silverman's rule over the anchors' turns
     /// (module docs, "A turn under way"). `None` with fewer than 20 anchors with a turn.
     fn turn_alike(&self, now_radps: f64) -> Option<Vec<f64>> {
-        let turns = || {
-            self.anchors
-                .iter()
-                .filter_map(|&a| self.frames[a as usize].and_then(|f| f.turn_radps))
-        };
+        let turn = |a: u32| self.frames[a as usize].and_then(|f| f.turn_radps);
         let (mut n, mut sum, mut sum2) = (0usize, 0.0, 0.0);
-        for w in turns() {
+        for w in self.anchors.iter().filter_map(|&a| turn(a)) {
             n += 1;
             sum += w;
             sum2 += w * w;
@@ -687,7 +681,7 @@ impl<'a> ReplayParticles<'a> {
             .anchors
             .iter()
             .map(|&a| {
-                if let Some(w) = self.frames[a as usize].and_then(|f| f.turn_radps) {
+                if let Some(w) = turn(a) {
                     acc += (-0.5 * ((w - now_radps) / h).powi(2)).exp();
                 }
                 acc
