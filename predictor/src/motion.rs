@@ -81,6 +81,10 @@ pub struct MotionModel {
     /// A spline tour's present leg ([`crate::leg::fit`]): when set, its share of the
     /// particles fly the leg's cubic to their knot, the others the model above.
     pub leg: Option<YoungModel>,
+    /// Added to every turn rate the stage model draws (then clamped to the capability),
+    /// rad/s, counter-clockwise positive: a young track's shown bias
+    /// ([`crate::young::turn_bias_radps`]); 0 otherwise.
+    pub turn_bias_radps: f64,
 }
 
 /// How an obstacle's own past is replayed ([`crate::replay`]).
@@ -157,6 +161,7 @@ impl MotionModel {
             replay: None,
             young: None,
             leg: None,
+            turn_bias_radps: 0.0,
         }
     }
 
@@ -512,7 +517,7 @@ impl<'a> Propagator<'a> {
         let width = 2.0 * m.w_max_radps / levels as f64;
         let tab = (0..levels)
             .map(|j| {
-                let w = (-m.w_max_radps + (j as f64 + 0.5) * width)
+                let w = (m.turn_bias_radps - m.w_max_radps + (j as f64 + 0.5) * width)
                     .clamp(-m.turn_limit_radps, m.turn_limit_radps);
                 let th = w * h;
                 let (s, c) = th.sin_cos();

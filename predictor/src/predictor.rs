@@ -490,6 +490,10 @@ fn refresh(ob: &mut Obstacle, cfg: &PredictorConfig, samples_changed: bool) {
             && span < rc.min_history_s
         {
             ob.model.young = crate::young::fit(&ob.track, &rc, ob.model.speed_mps);
+            if ob.model.young.is_some() && ob.model.stage == Stage::Random {
+                ob.model.turn_bias_radps =
+                    crate::young::turn_bias_radps(ob.sampler.window(&cfg.estimator), &rc);
+            }
         }
     }
 }

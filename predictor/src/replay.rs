@@ -114,6 +114,10 @@ pub struct ReplayConfig {
     /// Share of a young track's particles that fly its quadratic; the others fly the stage
     /// model from the start. Default 0.5.
     pub young_share: f64,
+    /// A young track's stage model turns with its shown bias: the mean of its turn
+    /// samples less this many standard errors ([`crate::young::turn_bias_radps`]); 0
+    /// disables. Default 0 (off: measured at 2 in the README, "A young track's lean").
+    pub young_bias_se: f64,
     /// Share of the particles that fly a spline tour's present leg ([`crate::leg`]) beside
     /// the model's own; 0 disables. Default 0.5.
     pub leg_share: f64,
@@ -154,6 +158,7 @@ impl Default for ReplayConfig {
             young_min_span_s: 2.0,
             young_noise_floor_m: 0.5,
             young_share: 0.5,
+            young_bias_se: 0.0,
             leg_share: 0.5,
             leg_min_s: 8.0,
             leg_max_noise_m: 0.25,

@@ -23,12 +23,16 @@ pub enum Behaviour {
     Stationary,
     /// Turns steadily at `w` (a constant-turn-rate mover).
     Circling { w: f64 },
+    /// Leans one way: `mean` plus uniform in [-spread, spread] every second (the
+    /// simulator's biased turners, a turn-rate mean of 0.05-0.15 rad/s).
+    Leaning { mean: f64, spread: f64 },
 }
 
 pub fn next_turn(b: Behaviour, prev: f64, rng: &mut ChaCha8Rng) -> f64 {
     match b {
         Behaviour::Straight | Behaviour::Stationary => 0.0,
         Behaviour::Circling { w } => w,
+        Behaviour::Leaning { mean, spread } => mean + rng.random_range(-spread..spread),
         Behaviour::Uniform { w } => rng.random_range(-w..w),
         Behaviour::Biased { w } => {
             if rng.random::<f64>() < 0.5 {
