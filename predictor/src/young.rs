@@ -254,9 +254,6 @@ mod tests {
         assert!(fit(&tr, &off, 0.0).is_none());
     }
 
-    /// The threat filter leaves an obstacle out when its reach (`MotionModel::reach_m`)
-    /// cannot meet the route: every particle of a young track, noisy and speeding up,
-    /// turning or starting from rest, stays within it at every horizon.
     /// The shown bias is the samples' mean less `young_bias_se` (2 here) standard errors of
     /// it: a track leaning left at 0.1 rad/s gets most of it, a track whose mean is within
     /// its noise none, and fewer than three samples or `young_bias_se` 0 (the default) give
@@ -301,6 +298,9 @@ mod tests {
         );
     }
 
+    /// The threat filter leaves an obstacle out when its reach (`MotionModel::reach_m`)
+    /// cannot meet the route: every particle of a young track, noisy and speeding up,
+    /// turning or starting from rest, stays within it at every horizon.
     #[test]
     fn young_particles_never_leave_the_models_reach() {
         let noise = Normal::new(0.0, 1.5).unwrap();

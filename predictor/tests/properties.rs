@@ -492,11 +492,10 @@ fn young_coverage(b: Behaviour, watch_s: f64, h: f64, trials: u64) -> (f64, f64)
 /// carries it for 10 s; after that the stage model's turns, drawn about zero, leave it
 /// behind its own bend, and the young track's shown bias
 /// ([`predictor::young::turn_bias_radps`], `young_bias_se` 2; off by default) carries it
-/// round. Over 60 seeded trials the 95%
-/// disc covers the truth at +20 s in at least 80% of them, against at most 65% without the
-/// bias (measured: 85% and 55%); at +10 s the two are within 5 points (88% and 90%). A
-/// uniform turner (its mean turn within its noise) keeps its coverage within 5 points at
-/// both horizons.
+/// round. Over 60 seeded trials the 95% disc covers the truth at +20 s in at least 80% of
+/// them, against at most 65% without the bias (measured: 85% and 55%); at +10 s the two
+/// are within 5 points (88% and 90%). A uniform turner (its mean turn within its noise)
+/// keeps its coverage within 5 points at both horizons.
 #[test]
 fn a_young_track_leaning_one_way_is_predicted_round_its_bend() {
     let trials = 60;
