@@ -227,6 +227,7 @@ pub fn run_with_streams(
     let mut last_target = stack.target().map(|t| t.p_m);
     let mut step = 0usize;
     let mut inside = vec![false; scenario.spheres.len()];
+    let mut zone_out = false;
     let mut own_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x004E_0153);
     if cfg.record_track {
         track.push([0.0, ap.state.p_m[0], ap.state.p_m[1], ap.state.p_m[2]]);
@@ -321,6 +322,7 @@ pub fn run_with_streams(
         path_len += crate::geometry::dist(before, xy(ap.state.p_m));
         if crate::strategy::trace_plans() {
             trace_inside(scenario, &ap.state, &mut inside);
+            trace_zone(scenario, &ap.state, &mut zone_out);
         }
         step += 1;
         if step.is_multiple_of(judge_every) {
@@ -376,6 +378,33 @@ pub fn run_with_streams(
         latencies_ms,
         live_ms,
         cpu_ms,
+    }
+}
+
+/// `JINK_SIM_TRACE`: one stderr line each time the aircraft leaves or re-enters the fly
+/// zone (its boundary or its altitude band, as the judges count time out of the zone), with
+/// where and which limit.
+fn trace_zone(scenario: &Scenario, own: &crate::aircraft::AircraftState, out: &mut bool) {
+    let zone = crate::mission::fly_zone(&scenario.mission);
+    let (alt_min_m, alt_max_m) = crate::mission::altitude_band_m(&scenario.mission);
+    let horizontal = zone.len() >= 3 && !crate::geometry::point_in_polygon(xy(own.p_m), zone);
+    let vertical = own.p_m[2] < alt_min_m || own.p_m[2] > alt_max_m;
+    if (horizontal || vertical) != *out {
+        *out = horizontal || vertical;
+        eprintln!(
+            "{} zone t={:.1} s pos=({:.0}, {:.0}, {:.0}){}",
+            if *out { "exit" } else { "enter" },
+            own.t_s,
+            own.p_m[0],
+            own.p_m[1],
+            own.p_m[2],
+            match (horizontal, vertical) {
+                (true, true) => " boundary and altitude",
+                (true, false) => " boundary",
+                (false, true) => " altitude",
+                (false, false) => "",
+            }
+        );
     }
 }
 
