@@ -117,8 +117,9 @@ pub struct VerifyParams {
     /// The judges count every second and every excursion out of bounds. Default 3 (since
     /// 2026-12-04; 0, ranked by length alone, before): on Webster Field with spline
     /// spheres, 200 runs, time out of bounds fell from 3.85 to 0 s a run at the median
-    /// (5.07 to 3.24 s mean; the oracle 0.30 and 3.06) for 0.7 s of flight a run (standard
-    /// error 1.2) and no hit either way (README, "Flown inside the fly zone, now by
+    /// (5.07 to 3.24 s mean; the oracle at weight 0: 0.30 and 3.06) for 0.7 s of flight a
+    /// run (standard error 1.2), and with mixed spheres (400 runs) by 1.2-1.9 s a run for
+    /// 2.1-2.7 s; no hit either way in the 600 (README, "Flown inside the fly zone, now by
     /// default", at the head of "Results: the default suite"). An earlier planner paid 9.7
     /// s a run and three hits against one at 10 (README, "Flown inside the fly zone").
     /// 0 ranks by length alone.
