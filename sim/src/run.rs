@@ -385,10 +385,7 @@ pub fn run_with_streams(
 /// zone (its boundary or its altitude band, as the judges count time out of the zone), with
 /// where and which limit.
 fn trace_zone(scenario: &Scenario, own: &crate::aircraft::AircraftState, out: &mut bool) {
-    let zone = crate::mission::fly_zone(&scenario.mission);
-    let (alt_min_m, alt_max_m) = crate::mission::altitude_band_m(&scenario.mission);
-    let horizontal = zone.len() >= 3 && !crate::geometry::point_in_polygon(xy(own.p_m), zone);
-    let vertical = own.p_m[2] < alt_min_m || own.p_m[2] > alt_max_m;
+    let (horizontal, vertical) = crate::scoring::outside_zone(&scenario.mission, own.p_m);
     if (horizontal || vertical) != *out {
         *out = horizontal || vertical;
         eprintln!(

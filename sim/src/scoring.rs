@@ -174,8 +174,8 @@ pub fn judge_points(
             }
         }
         if let Some(m) = mission {
-            let (alt_min_m, alt_max_m) = altitude_band_m(m);
-            let out = !in_zone(xy(p), fly_zone(m)) || p[2] < alt_min_m || p[2] > alt_max_m;
+            let (beyond_boundary, outside_band) = outside_zone(m, p);
+            let out = beyond_boundary || outside_band;
             if out {
                 boundary_violation_s += JUDGE_STEP_S;
                 if !was_out {
@@ -195,6 +195,16 @@ pub fn judge_points(
         boundary_violation_s,
         boundary_excursions,
     }
+}
+
+/// Which of the mission's fly-zone limits `p` (ENU metres) breaks, as the judges count time
+/// out of bounds: `(beyond the boundary, outside the altitude band)`.
+pub(crate) fn outside_zone(m: &Mission, p: [f64; 3]) -> (bool, bool) {
+    let (alt_min_m, alt_max_m) = altitude_band_m(m);
+    (
+        !in_zone(xy(p), fly_zone(m)),
+        p[2] < alt_min_m || p[2] > alt_max_m,
+    )
 }
 
 fn in_zone(p: P2, zone: &[P2]) -> bool {
