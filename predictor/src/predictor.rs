@@ -117,6 +117,9 @@ pub struct ObstacleSummary {
     pub turn_samples: usize,
     /// The newest observation.
     pub last_observation: Observation,
+    /// Time of the oldest observation, seconds: with [`Self::last_observation`] it says
+    /// how long the obstacle has been watched (a track keeps every observation it accepts).
+    pub first_t_s: f64,
     /// Lowest and highest observed centre altitude, metres (as observed).
     pub alt_range_m: [f64; 2],
     /// The lap of a periodic tour it flies, when recognized ([`crate::periodic`]).
@@ -515,6 +518,7 @@ fn summary(id: &str, ob: &Obstacle) -> ObstacleSummary {
         flagged: ob.track.flagged(),
         turn_samples: ob.sampler.samples().len(),
         last_observation: *ob.track.last().expect("non-empty"),
+        first_t_s: ob.track.observations()[0].t_s,
         alt_range_m: ob
             .track
             .observations()

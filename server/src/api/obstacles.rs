@@ -139,6 +139,32 @@ pub struct CylinderOut {
     pub top_msl_m: f64,
 }
 
+/// A recognized lap of an obstacle's periodic tour (README "Periodic tours").
+#[derive(Debug, Serialize, Deserialize, ToSchema)]
+pub struct LapOut {
+    /// `repeat` (the tour comes round again) or `mirror` (a two-waypoint tour retracing
+    /// itself after a turn-back).
+    pub kind: String,
+    /// The period, seconds (for a mirror, twice the time since the turn-back).
+    pub period_s: f64,
+    /// RMS distance between the track and its earlier lap, metres.
+    pub rms_m: f64,
+}
+
+impl From<&predictor::Lap> for LapOut {
+    fn from(l: &predictor::Lap) -> Self {
+        Self {
+            kind: match l.kind {
+                predictor::LapKind::Repeat => "repeat",
+                predictor::LapKind::Mirror => "mirror",
+            }
+            .into(),
+            period_s: l.period_s,
+            rms_m: l.rms_m,
+        }
+    }
+}
+
 /// One obstacle of the mission.
 #[derive(Debug, Serialize, Deserialize, ToSchema)]
 pub struct ObstacleOut {
@@ -158,6 +184,13 @@ pub struct ObstacleOut {
     pub last_observation: Option<LastObservationOut>,
     /// Every stage change with its statistic, oldest first (moving obstacles).
     pub stage_history: Vec<StageChangeOut>,
+    /// How long it has been watched: its newest observation less its oldest, seconds
+    /// (moving obstacles). A moving obstacle watched for less than 120 s with no `lap` is
+    /// still being learned: plans warn `tours_not_learned`.
+    pub watched_s: Option<f64>,
+    /// The lap of the periodic tour it flies, once recognized (moving obstacles; null
+    /// until then, and for obstacles that do not retrace their path).
+    pub lap: Option<LapOut>,
     /// The cylinder (stationary obstacles).
     pub cylinder: Option<CylinderOut>,
 }
@@ -207,6 +240,8 @@ async fn list_obstacles(
                         radius_m: s.last_observation.radius_m,
                     }),
                     stage_history: s.stage_history.iter().map(StageChangeOut::from).collect(),
+                    watched_s: Some(s.last_observation.t_s - s.first_t_s),
+                    lap: s.lap.as_ref().map(LapOut::from),
                     cylinder: None,
                 }
             })
@@ -226,6 +261,8 @@ async fn list_obstacles(
             flagged_count: 0,
             last_observation: None,
             stage_history: Vec::new(),
+            watched_s: None,
+            lap: None,
             cylinder: Some(CylinderOut {
                 lat: c.lat,
                 lon: c.lon,

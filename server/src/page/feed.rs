@@ -289,8 +289,21 @@ impl Feed {
                     "message": format!("clock mismatch: aircraft telemetry (t={t:.1}) and obstacle data (t={a:.1}) are {:.1} s apart; stamp both with the same clock", (t - a).abs())}));
             }
         }
+        if let Some(a) = snap.anchor_t_s {
+            // The obstacles a plan anchored now would consider (README "Time rule").
+            let fresh: Vec<_> = snap
+                .predictor
+                .obstacles()
+                .filter(|o| o.last_observation.t_s >= a - crate::live::snapshot::LIVE_HORIZON_S)
+                .collect();
+            let young = crate::live::plan_view::not_learned(&fresh);
+            if let Some(m) = crate::live::plan_view::not_learned_message(&young) {
+                w.push(json!({"code": "tours_not_learned", "message": m}));
+            }
+        }
         if let Some(p) = &self.plan {
-            for pw in &p.warnings {
+            // The page shows its own, live `tours_not_learned` (above).
+            for pw in p.warnings.iter().filter(|w| w.code != "tours_not_learned") {
                 w.push(json!({"code": format!("plan_{}", pw.code), "message": format!("plan {}: {}", p.revision, pw.message)}));
             }
         }

@@ -77,7 +77,15 @@ async fn a_plan_lists_the_obstacles_it_used_with_the_stages_the_operator_sees(ap
         json!({"seed": 3, "current_index": 1, "aircraft": {"turn_radius_m": 40.0}}),
     )
     .await;
-    assert_eq!(p["warnings"], json!([]), "{p}");
+    // The only warning: both obstacles have flown for 6 s with no lap of a tour yet.
+    assert_eq!(warning_codes(&p), ["tours_not_learned"], "{p}");
+    assert!(
+        p["warnings"][0]["message"]
+            .as_str()
+            .unwrap()
+            .contains(": 0 (6 s), 1 (6 s)."),
+        "{p}"
+    );
     assert_eq!(p["observation_seq"], 6);
     assert_eq!(p["dynamic_risk"]["obstacles"], 2);
     let used: Vec<(String, String)> = p["obstacles"]

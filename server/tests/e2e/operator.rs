@@ -108,6 +108,10 @@ async fn the_events_carry_the_mission_then_the_live_state_a_plan_used(app: App) 
         codes.contains(&"stale_telemetry") && codes.contains(&"stale_obstacles"),
         "{codes:?}"
     );
+    // Both obstacles have flown for 6 s: the page says they are still being learned, once
+    // (the plan's own copy of that warning is not repeated).
+    assert!(codes.contains(&"tours_not_learned"), "{codes:?}");
+    assert!(!codes.contains(&"plan_tours_not_learned"), "{codes:?}");
 
     // The risk layer: one pixel per cell, placed by its header, not empty near the
     // obstacles; a look-ahead beyond the horizon names the field.

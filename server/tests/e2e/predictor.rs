@@ -62,6 +62,13 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
     assert_eq!(moving["kind"], "moving");
     assert_eq!(moving["stage"], "advanced", "{moving}");
     assert_eq!(moving["observation_count"], 700);
+    // Watched from its first observation to its newest (0.0 to 69.9 s); a straight track
+    // retraces nothing, so no lap.
+    assert!(
+        (moving["watched_s"].as_f64().unwrap() - 69.9).abs() < 1e-6,
+        "{moving}"
+    );
+    assert_eq!(moving["lap"], Value::Null, "{moving}");
     let est = &moving["estimates"];
     assert!(
         (est["speed_mps"].as_f64().unwrap() - 12.0).abs() < 0.1,
@@ -190,6 +197,7 @@ async fn a_straight_track_is_characterized_mapped_and_survives_a_restart(mut app
     let restarted = obstacle_7(&app, &path).await;
     assert_eq!(restarted["stage"], moving["stage"]);
     assert_eq!(restarted["observation_count"], 710);
+    assert_eq!(restarted["watched_s"], moving["watched_s"]);
     assert_eq!(restarted["stage_history"], moving["stage_history"]);
     assert_eq!(restarted["estimates"], moving["estimates"]);
 }
