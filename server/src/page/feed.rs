@@ -13,6 +13,7 @@
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::Arc;
 
+use predictor::ObstacleSummary;
 use serde_json::{Value, json};
 
 use crate::api::obstacles::StageOut;
@@ -176,7 +177,9 @@ impl Feed {
             .await?;
         let revision = state.store.latest_plan_revision(&id).await?;
         let now_s = crate::time::now_s();
-        let warnings = self.warnings(&snap, telemetry.last().map(|t| t.t_s), now_s);
+        // One summary per obstacle, shared by the warnings and the state.
+        let obstacles: Vec<ObstacleSummary> = snap.predictor.obstacles().collect();
+        let warnings = self.warnings(&snap, &obstacles, telemetry.last().map(|t| t.t_s), now_s);
         let key = format!(
             "{}/{:?}/{revision}/{}",
             snap.seq,
@@ -193,7 +196,9 @@ impl Feed {
         self.last_key = Some(key);
         self.read_tracks(state, &snap).await?;
         self.read_plans(state, revision).await?;
-        Ok(Some(self.state(&snap, &telemetry, warnings, now_s)))
+        Ok(Some(
+            self.state(&snap, &obstacles, &telemetry, warnings, now_s),
+        ))
     }
 
     /// Appends the observations newer than those already read to the tracks and drops the
@@ -268,7 +273,13 @@ impl Feed {
         Ok(())
     }
 
-    fn warnings(&self, snap: &Snapshot, telemetry_t: Option<f64>, now_s: f64) -> Vec<Value> {
+    fn warnings(
+        &self,
+        snap: &Snapshot,
+        obstacles: &[ObstacleSummary],
+        telemetry_t: Option<f64>,
+        now_s: f64,
+    ) -> Vec<Value> {
         let mut w = Vec::new();
         match telemetry_t {
             None => w.push(json!({"code": "no_telemetry",
@@ -291,12 +302,10 @@ impl Feed {
         }
         if let Some(a) = snap.anchor_t_s {
             // The obstacles a plan anchored now would consider (README "Time rule").
-            let fresh: Vec<_> = snap
-                .predictor
-                .obstacles()
-                .filter(|o| o.last_observation.t_s >= a - crate::live::snapshot::LIVE_HORIZON_S)
-                .collect();
-            let young = crate::live::plan_view::not_learned(&fresh);
+            let young =
+                crate::live::plan_view::not_learned(obstacles.iter().filter(|o| {
+                    o.last_observation.t_s >= a - crate::live::snapshot::LIVE_HORIZON_S
+                }));
             if let Some(m) = crate::live::plan_view::not_learned_message(&young) {
                 w.push(json!({"code": "tours_not_learned", "message": m}));
             }
@@ -313,14 +322,14 @@ impl Feed {
     fn state(
         &self,
         snap: &Snapshot,
+        obstacles: &[ObstacleSummary],
         telemetry: &[crate::store::TelemetryRow],
         warnings: Vec<Value>,
         now_s: f64,
     ) -> Value {
         let frame = snap.frame;
-        let obstacles: Vec<Value> = snap
-            .predictor
-            .obstacles()
+        let obstacles: Vec<Value> = obstacles
+            .iter()
             .map(|o| {
                 let e = &o.estimates;
                 let track: Vec<[f64; 2]> = self
