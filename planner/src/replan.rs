@@ -318,6 +318,9 @@ fn seen(map: &RiskMap, obstacles: &[ObstacleSummary], dropped: &[String]) -> Dyn
     }
 }
 
+/// A shared map and the obstacles whose altitudes a plan reads it for.
+type Banded<'a> = (&'a RiskMap, &'a [ObstacleSummary]);
+
 /// Replans (see the module docs).
 ///
 /// # Errors
@@ -361,11 +364,7 @@ pub fn replan(
     let built: RiskMap;
     let summaries: Vec<ObstacleSummary>;
     // The map the plan reads, with the obstacles whose altitudes it reads it for.
-    let (risk, dynamic, banded): (
-        &dyn RiskField,
-        DynamicSeen,
-        Option<(&RiskMap, &[ObstacleSummary])>,
-    ) = match dynamic {
+    let (risk, dynamic, banded): (&dyn RiskField, DynamicSeen, Option<Banded<'_>>) = match dynamic {
         Dynamic::None => (&NoRisk, DynamicSeen::default(), None),
         Dynamic::Predictor(predictor) => {
             summaries = predictor.obstacles().collect();

@@ -327,7 +327,7 @@ mod tests {
                 let d = geom::dist(*q, model.position_m);
                 assert!(d <= r + 1e-9, "+{h} s: {d} > {r}");
             }
-            if h >= 3.0 && h <= 10.0 {
+            if (3.0..=10.0).contains(&h) {
                 let truth = two_legs(35.0 + h);
                 let near =
                     |s: &[[f64; 2]]| s.iter().filter(|q| geom::dist(**q, truth) < 2.0).count();

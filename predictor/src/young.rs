@@ -177,7 +177,8 @@ pub fn fit(track: &Track, cfg: &ReplayConfig, speed_mps: f64) -> Option<YoungMod
     // turn-back speeding up again, not a stationary sphere's noise.
     let var_a: f64 = l[2].iter().map(|v| v * v).sum();
     let chi2 = (c[0][2].powi(2) + c[1][2].powi(2)) / var_a;
-    if speed_mps <= 0.0 && !(chi2 > 13.8) {
+    // (A NaN statistic, no acceleration at all, is not clear either.)
+    if speed_mps <= 0.0 && (chi2.is_nan() || chi2 <= 13.8) {
         return None;
     }
     let until_s = cfg.young_horizon_s;

@@ -396,7 +396,7 @@ mod tests {
         r.fill_latest_revision("new", e, 1);
         assert_eq!(r.lock().entries.len(), MAX_ENTRIES);
         assert_eq!(r.latest_revision("m0"), Some(1));
-        assert_eq!(r.lock().entries.contains_key("m1"), false);
+        assert!(!r.lock().entries.contains_key("m1"));
     }
 }
 
