@@ -112,6 +112,12 @@ pub struct PlanView {
     pub variability: Option<f64>,
 }
 
+/// Whether a plan starting at `start_t_s` with horizon `horizon_s` considers an obstacle
+/// last observed at `last_t_s` (README "Time rule"; otherwise it is left out as `stale`).
+pub fn considered(last_t_s: f64, start_t_s: f64, horizon_s: f64) -> bool {
+    last_t_s >= start_t_s - horizon_s
+}
+
 /// The plan's view of `snap` for a start at `start_t_s` (from telemetry when
 /// `from_telemetry`) over `horizon_s`; `with_map` false skips the map (insertion only).
 ///
@@ -131,7 +137,7 @@ pub fn plan_view(
     let mut young = Vec::new();
     for o in snap.predictor.obstacles() {
         let last_t = o.last_observation.t_s;
-        let considered = last_t >= start_t_s - horizon_s;
+        let considered = considered(last_t, start_t_s, horizon_s);
         if considered {
             young.extend(not_learned([&o]));
             ids.push(o.id.clone());

@@ -302,10 +302,13 @@ impl Feed {
         }
         if let Some(a) = snap.anchor_t_s {
             // The obstacles a plan anchored now would consider (README "Time rule").
-            let young =
-                crate::live::plan_view::not_learned(obstacles.iter().filter(|o| {
-                    o.last_observation.t_s >= a - crate::live::snapshot::LIVE_HORIZON_S
-                }));
+            let young = crate::live::plan_view::not_learned(obstacles.iter().filter(|o| {
+                crate::live::plan_view::considered(
+                    o.last_observation.t_s,
+                    a,
+                    crate::live::snapshot::LIVE_HORIZON_S,
+                )
+            }));
             if let Some(m) = crate::live::plan_view::not_learned_message(&young) {
                 w.push(json!({"code": "tours_not_learned", "message": m}));
             }
