@@ -148,6 +148,15 @@ pub const MIRROR_SPREAD_MPS: f64 = 0.5;
 /// tour observed without noise still matches only to the precision of its refined period.
 pub const LAP_MIN_SIGMA_M: f64 = 0.5;
 
+/// One-sigma timing error of a refined period, seconds ([`Lap::jitter_s`]): the lag's last
+/// refinement step is a sixteenth of [`PeriodicConfig::step_s`] (1/16 s by default), so it
+/// rounds within +-1/32 s (a uniform error of sigma 0.018 s), and the noise moves the best
+/// lag a little more. 0.05 s until 2026-12-05 (half a tenth of the step, the rounding's
+/// bound rather than its sigma): with 1 m of noise at 2 Hz that drew a spread along the
+/// track wider than the error, and the prediction report's 95% region of a spline tour
+/// covered 98-99%; at 0.025 s it covers 96-97% (README, "Prediction report").
+pub const LAP_JITTER_S: f64 = 0.025;
+
 /// How a lap maps the future onto the observed track.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -204,11 +213,10 @@ impl Lap {
         }
     }
 
-    /// One-sigma timing jitter `s` seconds ahead, seconds: half a tenth of the signature
-    /// step (the precision the period is refined to) plus as much per lap back the
-    /// prediction reaches, since the error of the period adds up lap after lap.
+    /// One-sigma timing jitter `s` seconds ahead, seconds: [`LAP_JITTER_S`] plus as much per
+    /// lap back the prediction reaches, since the error of the period adds up lap after lap.
     pub fn jitter_s(&self, s: f64) -> f64 {
-        0.05 + 0.05 * (s.max(0.0) / self.period_s).ceil()
+        LAP_JITTER_S + LAP_JITTER_S * (s.max(0.0) / self.period_s).ceil()
     }
 
     /// The predicted position `s` seconds after `t0_s` before spreading, from `track`;
@@ -575,7 +583,7 @@ mod tests {
     }
 
     /// A repeat's spread is half its RMS (two noisy passes apart), floored, and does not grow
-    /// with the time ahead; its timing jitter grows by a twentieth of a second a lap.
+    /// with the time ahead; its timing jitter grows by a fortieth of a second a lap.
     #[test]
     fn a_repeats_spread_is_half_its_rms_and_its_jitter_grows_lap_by_lap() {
         let lap = Lap {
@@ -587,8 +595,8 @@ mod tests {
         assert_eq!((lap.sigma_m(0.0), lap.sigma_m(50.0)), (1.0, 1.0));
         let exact = Lap { rms_m: 0.1, ..lap };
         assert_eq!(exact.sigma_m(10.0), LAP_MIN_SIGMA_M);
-        assert!((lap.jitter_s(10.0) - 0.10).abs() < 1e-12);
-        assert!((lap.jitter_s(150.0) - 0.15).abs() < 1e-12);
+        assert!((lap.jitter_s(10.0) - 0.05).abs() < 1e-12);
+        assert!((lap.jitter_s(150.0) - 0.075).abs() < 1e-12);
     }
 
     fn out_and_back(s: f64) -> [f64; 2] {

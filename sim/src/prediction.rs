@@ -8,7 +8,8 @@
 //! is compared with the true position:
 //! - stages 1-4 (forced) and the automatic stage: `n` positions sampled with
 //!   `Predictor::sample_future_with_stage` (resp. `sample_future`); the density is a Gaussian
-//!   kernel density over the samples (isotropic, Silverman bandwidth, at least 1 m);
+//!   kernel density over the samples (isotropic, Silverman bandwidth, at least
+//!   [`MIN_BANDWIDTH_M`]);
 //! - `auto_no_lap`: the automatic stage's scores again, counted only while no lap of the
 //!   obstacle's tour is recognized (a spline tour before its first whole lap);
 //! - `auto_young` and `cv_young`: the automatic stage and constant velocity scored at
@@ -101,7 +102,14 @@ fn kde(samples: &[[f64; 2]], h: f64, x: [f64; 2]) -> f64 {
         * k
 }
 
-/// Silverman bandwidth for 2-D samples (pooled sigma), at least 1 m.
+/// The least kernel bandwidth, metres: only keeps the density finite where every sample is
+/// the same point. It was 1 m until 2026-12-05, which scored the kernel rather than the
+/// prediction wherever a cloud was a metre or two wide (a lapped tour, any obstacle one
+/// second ahead): the region grew by the kernel and covered more than the cloud did (README,
+/// "Prediction report").
+pub const MIN_BANDWIDTH_M: f64 = 1e-3;
+
+/// Silverman bandwidth for 2-D samples (pooled sigma), at least [`MIN_BANDWIDTH_M`].
 fn bandwidth(samples: &[[f64; 2]]) -> f64 {
     let n = samples.len() as f64;
     let m = [
@@ -113,7 +121,7 @@ fn bandwidth(samples: &[[f64; 2]]) -> f64 {
         .map(|s| (s[0] - m[0]).powi(2) + (s[1] - m[1]).powi(2))
         .sum::<f64>()
         / (2.0 * n);
-    (var.sqrt() * n.powf(-1.0 / 6.0)).max(1.0)
+    (var.sqrt() * n.powf(-1.0 / 6.0)).max(MIN_BANDWIDTH_M)
 }
 
 /// `(nll, covered)` of `truth` under the kernel density of `samples`.
@@ -394,5 +402,24 @@ mod tests {
         let (far_nll, far) = score_samples(&s, [50.0, 0.0]);
         assert!(near && !far);
         assert!(near_nll < far_nll);
+    }
+
+    /// The region is the cloud's own however sharp it is: a cloud of sigma 0.2 m per axis
+    /// has its 95% region within 0.49 m (2.45 sigma) of its centre, so a truth 0.8 m off is
+    /// outside and one 0.3 m off inside (a 1 m kernel floor put both inside).
+    #[test]
+    fn a_sharp_clouds_region_is_its_own_not_the_kernels() {
+        use rand_distr::{Distribution, Normal};
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let d = Normal::new(0.0, 0.2).unwrap();
+        let s: Vec<[f64; 2]> = (0..512)
+            .map(|_| [d.sample(&mut rng), d.sample(&mut rng)])
+            .collect();
+        let (_, inside) = score_samples(&s, [0.3, 0.0]);
+        let (_, outside) = score_samples(&s, [0.8, 0.0]);
+        assert!(inside && !outside, "inside {inside}, outside {outside}");
+        // Coincident samples keep a finite density at their point.
+        let (nll, covered) = score_samples(&[[5.0, 5.0]; 8], [5.0, 5.0]);
+        assert!(nll.is_finite() && covered);
     }
 }
