@@ -17,6 +17,13 @@
 //!   seen for 3 to 27 s by default): what a plan reads in a mission's first half-minute,
 //!   before the obstacle has shown enough flight for replay or a lap; the other rows never
 //!   see those times;
+//! - `auto_contained` and `auto_leaving`: the automatic stage's scores after the warm-up
+//!   again, for the turning behaviours only, split by whether the obstacle's true path from
+//!   the evaluation to the horizon stays inside the simulator's containment circle
+//!   ([`crate::scenario::containment`]; read every [`CONTAINMENT_STEP_S`]) or goes beyond
+//!   it, where the simulator turns it back toward the mission at its largest turn rate (a
+//!   rule of the simulator's, not of the obstacle's own past: what the predictor cannot
+//!   learn from a track that has not met the edge yet);
 //! - constant velocity: an isotropic Gaussian centred on the least-squares CV extrapolation
 //!   (3 s window) with `sigma = 2 m + 0.1 * speed * horizon` (a stated, not fitted, spread).
 //!
@@ -31,8 +38,9 @@ use serde::{Deserialize, Serialize};
 
 use predictor::{Observation, Predictor, PredictorConfig, Stage};
 
-use crate::behaviour::BehaviourKind;
-use crate::scenario::{Family, ScenarioParams, generate};
+use crate::behaviour::{BehaviourKind, Trajectory};
+use crate::geometry::P2;
+use crate::scenario::{Family, ScenarioParams, containment, generate};
 use crate::strategy::constant_velocity::fit_cv;
 use crate::telemetry::{TelemetryParams, sample_streams};
 
@@ -77,8 +85,8 @@ impl Default for PredictionParams {
 pub struct PredictionRow {
     /// Behaviour.
     pub behaviour: BehaviourKind,
-    /// `no_fly`, `random`, `advanced`, `memory`, `auto`, `cv`, `auto_no_lap`, `auto_young`
-    /// or `cv_young`.
+    /// `no_fly`, `random`, `advanced`, `memory`, `auto`, `cv`, `auto_no_lap`, `auto_young`,
+    /// `cv_young`, `auto_contained` or `auto_leaving`.
     pub method: String,
     /// Horizon, seconds.
     pub horizon_s: f64,
@@ -153,8 +161,10 @@ fn family_of(b: BehaviourKind) -> Family {
 
 /// `auto_no_lap` is `auto` scored only while no lap of the obstacle's tour is recognized
 /// (a spline tour before its first lap; every other behaviour always); `auto_young` and
-/// `cv_young` are scored only at the evaluations before the warm-up, the others only after.
-const METHODS: [&str; 9] = [
+/// `cv_young` are scored only at the evaluations before the warm-up, the others only after;
+/// `auto_contained` and `auto_leaving` split `auto` of the turning behaviours by
+/// [`leaves_containment`].
+const METHODS: [&str; 11] = [
     "no_fly",
     "random",
     "advanced",
@@ -164,7 +174,29 @@ const METHODS: [&str; 9] = [
     "auto_no_lap",
     "auto_young",
     "cv_young",
+    "auto_contained",
+    "auto_leaving",
 ];
+
+/// Step at which `auto_contained` / `auto_leaving` read the truth against the containment
+/// circle, seconds (the turning behaviours decide once a second).
+pub const CONTAINMENT_STEP_S: f64 = 0.5;
+
+/// Whether `track` is beyond the circle (`center`, `radius_m`) at any step of
+/// [`CONTAINMENT_STEP_S`] from `t0_s` to `t1_s` (both ends read).
+pub fn leaves_containment(
+    track: &Trajectory,
+    center: P2,
+    radius_m: f64,
+    t0_s: f64,
+    t1_s: f64,
+) -> bool {
+    let steps = ((t1_s - t0_s) / CONTAINMENT_STEP_S).ceil().max(0.0) as usize;
+    (0..=steps).any(|k| {
+        let p = track.at((t0_s + k as f64 * CONTAINMENT_STEP_S).min(t1_s));
+        (p[0] - center[0]).hypot(p[1] - center[1]) > radius_m
+    })
+}
 
 /// Runs the prediction report for `behaviours`.
 pub fn prediction_report(
@@ -181,6 +213,7 @@ pub fn prediction_report(
             .map(|seed| {
                 let mut acc = vec![vec![(0.0, 0, 0); params.horizons_s.len()]; METHODS.len()];
                 let s = generate(family_of(b), seed, &ScenarioParams::default());
+                let (contain_center, contain_radius) = containment(&s.mission);
                 let streams = sample_streams(&s, &params.telemetry);
                 let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9E3D_1C7A);
                 let max_h = params.horizons_s.iter().copied().fold(0.0, f64::max);
@@ -252,6 +285,16 @@ pub fn prediction_report(
                                 if !young && pred.model(&id).is_some_and(|m| m.lap.is_none()) {
                                     add(6, score);
                                 }
+                                if !young && b != BehaviourKind::Spline {
+                                    let leaving = leaves_containment(
+                                        &sp.track,
+                                        contain_center,
+                                        contain_radius,
+                                        t_e,
+                                        t,
+                                    );
+                                    add(if leaving { 10 } else { 9 }, score);
+                                }
                             }
                             add(
                                 cv_row,
@@ -311,7 +354,9 @@ pub fn prediction_markdown(rows: &[PredictionRow]) -> String {
                 .iter()
                 .filter(|r| r.behaviour == b && r.method == m)
                 .collect();
-            if line.is_empty() {
+            // (a method that scores no window of this behaviour, as the containment rows
+            // of a spline tour, has no line)
+            if line.iter().all(|r| r.n == 0) {
                 continue;
             }
             let _ = write!(s, "| {} | {} |", b.name(), m);
@@ -390,6 +435,75 @@ mod tests {
             "{young} for {} spheres",
             s.spheres.len()
         );
+    }
+
+    #[test]
+    fn a_track_leaves_the_circle_only_where_a_step_is_beyond_it() {
+        // east at 10 m/s from the origin, sampled every 0.1 s: at x = 100 m from 10 s on
+        let track = Trajectory {
+            dt_s: 0.1,
+            samples_m: (0..=300).map(|i| [f64::from(i), 0.0, 50.0]).collect(),
+        };
+        let c = [0.0, 0.0];
+        assert!(!leaves_containment(&track, c, 100.5, 0.0, 10.0));
+        assert!(leaves_containment(&track, c, 99.5, 0.0, 10.0));
+        // the window's far end is read even off the step grid
+        assert!(leaves_containment(&track, c, 99.5, 9.8, 9.96));
+        assert!(!leaves_containment(&track, c, 99.5, 0.0, 9.9));
+        // a window starting beyond the circle leaves it
+        assert!(leaves_containment(&track, c, 50.0, 6.0, 7.0));
+    }
+
+    /// `auto_contained` and `auto_leaving` split `auto` of the turning behaviours: their
+    /// counts add up to `auto`'s and so do their summed NLL and coverage; a spline tour
+    /// scores neither. Straight flyers are turned back by the containment often enough that
+    /// both rows have windows at +20 s.
+    #[test]
+    fn the_containment_rows_split_the_automatic_stage_of_turning_behaviours() {
+        let params = PredictionParams {
+            seeds: 2,
+            horizons_s: vec![1.0, 20.0],
+            samples: 32,
+            young_every_s: 0.0,
+            ..Default::default()
+        };
+        let rows = prediction_report(&[BehaviourKind::Straight, BehaviourKind::Spline], &params);
+        let row = |b: BehaviourKind, m: &str, h: f64| {
+            rows.iter()
+                .find(|r| r.behaviour == b && r.method == m && r.horizon_s == h)
+                .unwrap_or_else(|| panic!("{m} +{h}"))
+                .clone()
+        };
+        for h in [1.0, 20.0] {
+            let all = row(BehaviourKind::Straight, "auto", h);
+            let inside = row(BehaviourKind::Straight, "auto_contained", h);
+            let leaving = row(BehaviourKind::Straight, "auto_leaving", h);
+            assert_eq!(inside.n + leaving.n, all.n, "+{h} s");
+            let sum = |r: &PredictionRow, x: f64| if r.n > 0 { x * r.n as f64 } else { 0.0 };
+            let nll = sum(&inside, inside.nll) + sum(&leaving, leaving.nll);
+            assert!(
+                (nll - all.nll * all.n as f64).abs() < 1e-6 * all.n as f64,
+                "+{h} s"
+            );
+            let cov = sum(&inside, inside.coverage_95) + sum(&leaving, leaving.coverage_95);
+            assert!(
+                (cov - all.coverage_95 * all.n as f64).abs() < 1e-6,
+                "+{h} s"
+            );
+            assert_eq!(row(BehaviourKind::Spline, "auto_contained", h).n, 0);
+            assert_eq!(row(BehaviourKind::Spline, "auto_leaving", h).n, 0);
+        }
+        let md = prediction_markdown(&rows);
+        assert!(md.contains("| straight | auto_leaving |"), "{md}");
+        assert!(!md.contains("| spline | auto_leaving |"), "{md}");
+        let far_leaving = row(BehaviourKind::Straight, "auto_leaving", 20.0).n;
+        let far_inside = row(BehaviourKind::Straight, "auto_contained", 20.0).n;
+        assert!(
+            far_leaving > 0 && far_inside > 0,
+            "{far_leaving} / {far_inside}"
+        );
+        // a wider window meets the edge at least as often as a narrower one
+        assert!(far_leaving >= row(BehaviourKind::Straight, "auto_leaving", 1.0).n);
     }
 
     #[test]

@@ -341,8 +341,10 @@ fn random_mission<R: Rng + ?Sized>(params: &ScenarioParams, rng: &mut R) -> (Mis
 }
 
 /// The containment circle of the mission's turning spheres: centre and radius (90% of the
-/// larger half-extent of the mission's bounds).
-fn containment(mission: &Mission) -> (P2, f64) {
+/// larger half-extent of the mission's bounds). Outside it and heading outward, a turning
+/// sphere turns back toward the centre at its largest turn rate ([`crate::behaviour`]); the
+/// prediction report scores the windows where that happens apart.
+pub fn containment(mission: &Mission) -> (P2, f64) {
     let (lo, hi) = bounds_m(mission);
     let center = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
     let half = [(hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0];
