@@ -68,7 +68,7 @@ pub struct VerifyParams {
     pub far_risk: f64,
     /// The L1 distance of the track-following autopilot the second flown path models,
     /// in seconds of flight: `L1 = l1_s * speed` (ArduPlane's defaults, period 17 s and
-    /// damping 0.75, give `0.75 * 17 / pi = 4.06 s`), at most twice the turn radius.
+    /// damping 0.75, give `0.75 * 17 / pi = 4.06 s`), whatever the turn radius.
     /// Default 4.06.
     pub l1_s: f64,
     /// A fixed item (mission or search waypoint) counts as captured when the L1 path
@@ -150,7 +150,7 @@ impl Default for VerifyParams {
             near_s: 10.0,
             early_s: 15.0,
             far_risk: 0.5,
-            l1_s: 0.75 * 17.0 / std::f64::consts::PI,
+            l1_s: l1_seconds(17.0),
             capture_m: 25.0,
             acceptance_m: 10.0,
             delay_credit_s: 60.0,
@@ -637,6 +637,13 @@ impl Acc<'_> {
     }
 }
 
+/// [`VerifyParams::l1_s`] of an ArduPlane autopilot whose L1 period (`NAVL1_PERIOD`) is
+/// `period_s`, at the default damping (`NAVL1_DAMPING` 0.75): `0.75 * period / pi` seconds
+/// of flight.
+pub fn l1_seconds(period_s: f64) -> f64 {
+    0.75 * period_s / std::f64::consts::PI
+}
+
 /// Flies `tail` (the items still to fly, in order) from `state` and checks it (see the
 /// module docs). `env_at(alt_m)` gives the environment of a leg flown at `alt_m` (a leg
 /// is taken at the lower of its ends' altitudes); `speed_mps` and `turn_radius_m` are the
@@ -735,10 +742,13 @@ pub fn verify_route_to_beat<'e>(
     let guidances = [
         Guidance::Pursuit,
         Guidance::L1 {
-            // At most twice the turn radius: a longer L1 never commands the full bank
-            // (its lateral acceleration 2 V^2 / L1 stays under V^2 / R), and an autopilot
-            // tuned for the aircraft flies a tighter one.
-            l1_m: (params.l1_s * speed_mps).min(2.0 * turn_radius_m),
+            // ArduPlane's L1 distance does not depend on the turn radius: a slow
+            // aircraft that banks hard turns wider under L1 than its radius allows, and
+            // the model flies it so (until 2026-12-05 it was capped at twice the turn
+            // radius, and at 14 m/s with 43.3 degrees of bank, L1 57 m against 42, the
+            // simulated autopilot clipped a cylinder the model passed: README, "The
+            // autopilot's own L1 distance").
+            l1_m: params.l1_s * speed_mps,
             acceptance_m: params.acceptance_m,
             // An autopilot that switches at up to the judges' 100 ft captures where it
             // switches: counting that a miss would make every waypoint look missed.

@@ -182,3 +182,89 @@ fn a_waypoint_in_a_slow_spheres_neighbourhood_is_not_put_off_until_the_scenario_
     // 130 m, its spheres at their altitudes).
     flies_every_waypoint_clear(Family::Mixed, 21);
 }
+
+#[test]
+fn the_plans_model_flies_the_autopilots_own_l1_distance_when_the_aircraft_banks_hard() {
+    // Issue 10's bank at 14 m/s: a 21 m turn radius, but ArduPlane's L1 distance (period
+    // 17 s, damping 0.75) is 57 m whatever the radius, so the simulated autopilot swings
+    // wide of a right-angle corner. A small cylinder is put where its flight overshoots
+    // the corner most, clear of the legs; the verifier must find it on its modelled L1
+    // flight (Webster Field at 14 m/s, spline seed 82: a cylinder clipped 0.5 m deep when
+    // the model's L1 was capped at twice the turn radius, 42 m, and overshot 8 m less).
+    // An autopilot with a longer period (25 s: L1 84 m) overshoots further still: told
+    // the period (`aircraft.l1_period_s`), the verifier finds that cylinder too; not
+    // told, it flies the default 17 s and passes it.
+    use planner::cost::{ALL_ALTITUDES, LegEnv};
+    use planner::mission::Zones;
+    use planner::verify::l1_seconds;
+    use sim::aircraft::{AircraftParams, Autopilot};
+    use sim::mission::{Stack, StackItem};
+
+    let items = vec![
+        StackItem::mission(0, [0.0, 300.0], 100.0),
+        StackItem::mission(1, [300.0, 300.0], 100.0),
+    ];
+    // The cylinder at the widest point of the simulated autopilot's flight, and the
+    // verification of the legs with `l1_s`.
+    let check = |period_s: f64, l1_s: f64| {
+        let params = AircraftParams::default()
+            .speed_mps(14.0)
+            .max_bank_deg(43.3)
+            .l1_period_s(period_s);
+        let radius_m = params.min_turn_radius_m();
+        assert!((radius_m - 21.2).abs() < 0.1, "{radius_m}");
+        assert!(params.l1_distance_m() > 2.0 * radius_m + 10.0);
+        let mut ap = Autopilot::new(params, [0.0, 0.0, 100.0], [0.0, 1.0]);
+        let start = ap.state.planner_state();
+        let mut stack = Stack {
+            items: items.clone(),
+            current: 0,
+        };
+        let mut widest = [0.0, f64::NEG_INFINITY];
+        while stack.current < 2 && ap.state.t_s < 120.0 {
+            ap.step(&mut stack, 0.1);
+            if stack.current == 1 && ap.state.p_m[1] > widest[1] {
+                widest = [ap.state.p_m[0], ap.state.p_m[1]];
+            }
+        }
+        assert_eq!(stack.current, 2, "the autopilot flies both legs");
+        assert!(
+            widest[1] > 315.0,
+            "the overshoot north of the leg: {widest:?}"
+        );
+        let cylinders = [planner::Cylinder {
+            center_m: [widest[0], widest[1] + 2.0],
+            radius_m: 3.0,
+            top_m: 500.0,
+        }];
+        let zones = Zones::default();
+        let env_at = |alt_m| LegEnv {
+            risk: &predictor::NoRisk,
+            zones: &zones,
+            cylinders: &cylinders,
+            alt_m,
+            band_m: ALL_ALTITUDES,
+            band_hint: predictor::NO_BAND_HINT,
+            buffer_fraction: 0.0,
+            speed_mps: 14.0,
+            horizon_end_s: 60.0,
+        };
+        let verify = planner::VerifyParams {
+            l1_s,
+            ..planner::VerifyParams::default()
+        };
+        let v = planner::verify_route(&env_at, &start, &items, 14.0, radius_m, 0.1, &verify);
+        assert_eq!(v.polyline_cylinder_hits, 0, "the legs pass it: {v:?}");
+        v
+    };
+    // ArduPlane's default period, the model's default.
+    let v = check(17.0, planner::VerifyParams::default().l1_s);
+    assert!(v.cylinder_hits >= 1, "the modelled flight enters it: {v:?}");
+    assert!(!v.is_clear(0.1), "{v:?}");
+    // A 25 s period, told.
+    let v = check(25.0, l1_seconds(25.0));
+    assert!(v.cylinder_hits >= 1, "told the period: {v:?}");
+    // Not told: the default model turns inside the longer period's overshoot.
+    let v = check(25.0, planner::VerifyParams::default().l1_s);
+    assert_eq!(v.cylinder_hits, 0, "the default period passes it: {v:?}");
+}
