@@ -64,6 +64,11 @@ impl AircraftParams {
     pub fn l1_distance_m(&self) -> f64 {
         self.l1_damping * self.l1_period_s * self.speed_mps / std::f64::consts::PI
     }
+    /// L1 distance in seconds of flight, `damping * period / pi` (the planner's
+    /// [`planner::VerifyParams::l1_s`]).
+    pub fn l1_s(&self) -> f64 {
+        self.l1_damping * self.l1_period_s / std::f64::consts::PI
+    }
     planner::setters! {
         /// Sets the speed, m/s.
         speed_mps(speed_mps: f64);

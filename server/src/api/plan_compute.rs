@@ -92,6 +92,9 @@ pub struct PlanInputs {
     /// The autopilot's waypoint acceptance radius, metres (`None`: the verification's
     /// default, 10).
     pub acceptance_radius_m: Option<f64>,
+    /// The autopilot's L1 period, seconds (`None`: the verification's default, ArduPlane's
+    /// 17 s).
+    pub l1_period_s: Option<f64>,
     /// Index in `stack` the aircraft flies toward.
     pub current_index: usize,
     /// The base stack (empty = the mission's waypoints).
@@ -249,6 +252,9 @@ pub fn compute(
     let mut cfg = crate::live::snapshot::service_config(inputs.horizon_s);
     if let Some(a) = inputs.acceptance_radius_m {
         cfg.plan.verify.acceptance_m = a;
+    }
+    if let Some(p) = inputs.l1_period_s {
+        cfg.plan.verify.l1_s = planner::verify::l1_seconds(p);
     }
     let r = planner::Replan {
         mission: &pm,

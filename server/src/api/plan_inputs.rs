@@ -58,6 +58,9 @@ pub struct InputsRecord {
     /// The autopilot's acceptance radius, metres (absent: the default).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub acceptance_radius_m: Option<f64>,
+    /// The autopilot's L1 period, seconds (absent: the default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub l1_period_s: Option<f64>,
     /// Index in `stack` the aircraft flies toward.
     pub current_index: usize,
     /// The base stack (empty = the mission's waypoints).
@@ -182,6 +185,7 @@ impl InputsRecord {
             turn_radius_assumed: inputs.turn_radius_assumed,
             shown_bank_deg: inputs.shown_bank_deg,
             acceptance_radius_m: inputs.acceptance_radius_m,
+            l1_period_s: inputs.l1_period_s,
             current_index: inputs.current_index,
             stack: inputs.stack.iter().map(StoredItem::from).collect(),
             start: StoredStart::from(&inputs.start),
@@ -243,6 +247,7 @@ impl InputsRecord {
             turn_radius_assumed: self.turn_radius_assumed,
             shown_bank_deg: self.shown_bank_deg,
             acceptance_radius_m: self.acceptance_radius_m,
+            l1_period_s: self.l1_period_s,
             current_index: self.current_index,
             stack: self
                 .stack
@@ -426,6 +431,7 @@ mod tests {
             turn_radius_assumed: false,
             shown_bank_deg: None,
             acceptance_radius_m: None,
+            l1_period_s: None,
             current_index: 1,
             stack: vec![
                 GeoItem {
@@ -539,6 +545,7 @@ mod tests {
             turn_radius_assumed: true,
             shown_bank_deg: Some(41.5),
             acceptance_radius_m: Some(30.0),
+            l1_period_s: Some(12.0),
             revisit: Some(planner::Missed {
                 stack_index: 0,
                 mission_index: 0,
@@ -562,9 +569,10 @@ mod tests {
             (
                 &v["turn_radius_assumed"],
                 &v["shown_bank_deg"],
-                &v["acceptance_radius_m"]
+                &v["acceptance_radius_m"],
+                &v["l1_period_s"]
             ),
-            (&json!(true), &json!(41.5), &json!(30.0))
+            (&json!(true), &json!(41.5), &json!(30.0), &json!(12.0))
         );
         assert_eq!(
             v["revisit"],

@@ -80,10 +80,20 @@ pub struct AircraftIn {
     /// turns away before it captures them.
     #[schema(minimum = 0, maximum = 500)]
     pub acceptance_radius_m: Option<f64>,
+    /// The autopilot's L1 period, seconds (ArduPlane `NAVL1_PERIOD`, damping
+    /// `NAVL1_DAMPING` taken at its default 0.75): the plan's check of its routes flies
+    /// them with this L1 distance, `0.75 * period * speed / pi`, which a slow aircraft
+    /// that banks hard turns wider under than its turn radius allows. Default 17 (the
+    /// ArduPlane default), from 5 to 60.
+    #[schema(minimum = 5, maximum = 60)]
+    pub l1_period_s: Option<f64>,
 }
 
 /// The largest acceptance radius a plan accepts, metres.
 const MAX_ACCEPTANCE_RADIUS_M: f64 = 500.0;
+
+/// The L1 periods a plan accepts, seconds.
+const L1_PERIOD_RANGE_S: std::ops::RangeInclusive<f64> = 5.0..=60.0;
 
 /// Bank angle of the default turn radius ([`default_turn_radius_m`]), degrees.
 pub const DEFAULT_BANK_DEG: f64 = 30.0;
@@ -368,6 +378,18 @@ async fn create_plan(
             format!("must be in [0, {MAX_ACCEPTANCE_RADIUS_M}] m"),
         ));
     }
+    if let Some(p) = a.l1_period_s
+        && !(p.is_finite() && L1_PERIOD_RANGE_S.contains(&p))
+    {
+        return Err(ApiError::field(
+            "/aircraft/l1_period_s",
+            format!(
+                "must be in [{}, {}] s",
+                L1_PERIOD_RANGE_S.start(),
+                L1_PERIOD_RANGE_S.end()
+            ),
+        ));
+    }
     let horizon_s = body.horizon_s.unwrap_or(planner::DEFAULT_HORIZON_S);
     if !(horizon_s.is_finite() && horizon_s > 0.0 && horizon_s <= 600.0) {
         return Err(ApiError::field("/horizon_s", "must be in (0, 600]"));
@@ -496,6 +518,7 @@ async fn create_plan(
         turn_radius_assumed: a.turn_radius_m.is_none(),
         shown_bank_deg,
         acceptance_radius_m: a.acceptance_radius_m,
+        l1_period_s: a.l1_period_s,
         current_index,
         stack,
         start,

@@ -202,6 +202,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
         turn_radius_assumed: args.turn_radius_m.is_none(),
         shown_bank_deg: None,
         acceptance_radius_m: None,
+        l1_period_s: None,
         current_index,
         stack: Vec::new(),
         start,

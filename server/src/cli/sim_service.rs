@@ -258,7 +258,8 @@ impl HttpPlanner {
             // how fast the map of the last batch was built.
             "max_map_age_ms": 0,
             "aircraft": {"speed_mps": a.speed_mps, "turn_radius_m": a.turn_radius_m,
-                         "acceptance_radius_m": view.aircraft.acceptance_radius_m},
+                         "acceptance_radius_m": view.aircraft.acceptance_radius_m,
+                         "l1_period_s": view.aircraft.l1_period_s},
         });
         if self.bare
             && let Some(o) = body.as_object_mut()

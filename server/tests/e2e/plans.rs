@@ -239,6 +239,8 @@ async fn a_stale_base_revision_is_refused_with_409(app: App) {
             json!({"acceptance_radius_m": -1.0}),
             "/aircraft/acceptance_radius_m",
         ),
+        (json!({"l1_period_s": 4.0}), "/aircraft/l1_period_s"),
+        (json!({"l1_period_s": 61.0}), "/aircraft/l1_period_s"),
     ] {
         let r = app
             .post_json(

@@ -359,9 +359,11 @@ pub fn replan_command(
         revisit,
         captured,
     };
-    // The service is told the autopilot's acceptance radius (`aircraft.acceptance_radius_m`).
+    // The service is told the autopilot's acceptance radius and L1 period
+    // (`aircraft.acceptance_radius_m`, `aircraft.l1_period_s`).
     let mut cfg = cfg.clone();
     cfg.plan.verify.acceptance_m = view.aircraft.acceptance_radius_m;
+    cfg.plan.verify.l1_s = view.aircraft.l1_s();
     let read = trace_plans().then(|| trace_field(&dynamic)).flatten();
     match planner::replan(&r, dynamic, &cfg, &planner::Termination::none()) {
         Ok(p) => {
