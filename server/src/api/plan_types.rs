@@ -119,7 +119,8 @@ pub struct PlanOut {
     /// `start_outside_fly_zone`, `waypoint_inside_cylinder`. A plan is returned in every
     /// case (the least-risk one found).
     pub outcome: String,
-    /// Seed used.
+    /// Seed used (any unsigned 64-bit integer).
+    #[schema(format = "uint64")]
     pub seed: u64,
     /// Index to fly toward now.
     pub current_index: usize,

@@ -233,8 +233,10 @@ const MAX_TURN_RADIUS_M: f64 = 10_000.0;
 #[schema(example = json!({"seed": 42, "deadline_ms": 200, "base_revision": 0, "current_index": 1}))]
 pub struct PlanBody {
     /// Seed of the plan's random choices (default: drawn and returned). Same inputs and
-    /// seed, same plan.
+    /// seed, same plan. Any unsigned 64-bit integer (`uint64`: the simulator's client
+    /// and `jink demo` send seeds above 2^63).
     #[serde(default, deserialize_with = "crate::extract::opt_integer")]
+    #[schema(format = "uint64")]
     pub seed: Option<u64>,
     /// Compute budget, milliseconds (anytime: the best plan found by then). Default none.
     #[schema(minimum = 1, maximum = 60000)]
