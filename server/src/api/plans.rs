@@ -90,10 +90,10 @@ pub struct AircraftIn {
 }
 
 /// The largest acceptance radius a plan accepts, metres.
-const MAX_ACCEPTANCE_RADIUS_M: f64 = 500.0;
+pub(crate) const MAX_ACCEPTANCE_RADIUS_M: f64 = 500.0;
 
 /// The L1 periods a plan accepts, seconds.
-const L1_PERIOD_RANGE_S: std::ops::RangeInclusive<f64> = 5.0..=60.0;
+pub(crate) const L1_PERIOD_RANGE_S: std::ops::RangeInclusive<f64> = 5.0..=60.0;
 
 /// Bank angle of the default turn radius ([`default_turn_radius_m`]), degrees.
 pub const DEFAULT_BANK_DEG: f64 = 30.0;

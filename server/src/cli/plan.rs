@@ -1,7 +1,8 @@
 //! `jink plan --mission M.json --obstacles O.json [--seed N] [--position LAT,LON[,ALT]]
-//! [--heading DEG] [--format json|wpl|qgc-plan] [--out FILE]`: plan offline and print (or
-//! write) the plan as JSON (the same document `POST /api/v1/missions/{id}/plan` answers), a
-//! QGC WPL 110 file or a QGroundControl `.plan` (cylinders as exclusion circles).
+//! [--heading DEG] [--acceptance-radius-m M] [--l1-period-s S] [--format json|wpl|qgc-plan]
+//! [--out FILE]`: plan offline and print (or write) the plan as JSON (the same document
+//! `POST /api/v1/missions/{id}/plan` answers), a QGC WPL 110 file or a QGroundControl
+//! `.plan` (cylinders as exclusion circles).
 //!
 //! The mission file may be in any format the server accepts (native, interop 2017/2018,
 //! interop 2019+; detected). The optional obstacles file is the native observation batch
@@ -48,6 +49,14 @@ pub struct PlanArgs {
     /// cruise speed, as the service assumes).
     #[arg(long)]
     pub turn_radius_m: Option<f64>,
+    /// The autopilot's waypoint acceptance radius, m (ArduPlane `WP_RADIUS`), 0 to 500
+    /// (default 10, as the service assumes): the plan's check flies its routes so.
+    #[arg(long)]
+    pub acceptance_radius_m: Option<f64>,
+    /// The autopilot's L1 period, s (ArduPlane `NAVL1_PERIOD`), 5 to 60 (default 17, as
+    /// the service assumes): the plan's check flies its routes with this L1 distance.
+    #[arg(long)]
+    pub l1_period_s: Option<f64>,
     /// Deadline, ms (default none).
     #[arg(long)]
     pub deadline_ms: Option<u64>,
@@ -150,6 +159,24 @@ pub fn run(args: PlanArgs) -> ExitCode {
     {
         return fail(format!("--heading {h} is not in [0, 360]"));
     }
+    let max_acceptance = crate::api::plans::MAX_ACCEPTANCE_RADIUS_M;
+    if let Some(r) = args.acceptance_radius_m
+        && !(r.is_finite() && (0.0..=max_acceptance).contains(&r))
+    {
+        return fail(format!(
+            "--acceptance-radius-m {r} is not in [0, {max_acceptance}]"
+        ));
+    }
+    let l1_range = crate::api::plans::L1_PERIOD_RANGE_S;
+    if let Some(p) = args.l1_period_s
+        && !(p.is_finite() && l1_range.contains(&p))
+    {
+        return fail(format!(
+            "--l1-period-s {p} is not in [{}, {}]",
+            l1_range.start(),
+            l1_range.end()
+        ));
+    }
     let t0 = observations.iter().map(|o| o.t_s).fold(0.0, f64::max);
     let current_index = args.current_index.min(m.content.waypoints.len());
     let mut observations = observations;
@@ -201,8 +228,8 @@ pub fn run(args: PlanArgs) -> ExitCode {
         },
         turn_radius_assumed: args.turn_radius_m.is_none(),
         shown_bank_deg: None,
-        acceptance_radius_m: None,
-        l1_period_s: None,
+        acceptance_radius_m: args.acceptance_radius_m,
+        l1_period_s: args.l1_period_s,
         current_index,
         stack: Vec::new(),
         start,

@@ -511,6 +511,74 @@ async fn the_search_area_ladder_covers_the_search_grid_with_validated_parameters
 }
 
 #[test]
+fn jink_plan_flies_its_check_with_the_autopilots_l1_period_and_acceptance_radius() {
+    // The plan's check flies each route as the autopilot would: it switches to the next
+    // item within the acceptance radius and follows legs with the L1 distance of its
+    // period. Told either, `jink plan` plans for that autopilot (found by trying: these
+    // are settings where the Webster Field plan changes, not the only ones).
+    let mission = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/fixtures/interop/mission_2021_webster_field.json");
+    let jink = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
+            .args(["plan", "--mission"])
+            .arg(&mission)
+            .args(["--seed", "5", "--turn-radius-m", "21"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let plan = |extra: &[&str]| {
+        let out = jink(extra);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice::<Value>(&out.stdout).unwrap()
+    };
+    let route = |p: &Value| (p["waypoints"].clone(), p["length_m"].clone());
+    // The defaults told explicitly give the plan of the defaults assumed.
+    let slow = ["--speed-mps", "14"];
+    let assumed = plan(&slow);
+    let told = plan(
+        &[
+            &slow[..],
+            &["--l1-period-s", "17", "--acceptance-radius-m", "10"],
+        ]
+        .concat(),
+    );
+    assert_eq!(route(&assumed), route(&told));
+    // An autopilot that switches 60 m short of each item turns away before the judges'
+    // 100 ft: the plan sets up a straight approach to a waypoint it would miss.
+    let early = plan(&[&slow[..], &["--acceptance-radius-m", "60"]].concat());
+    assert_ne!(route(&assumed), route(&early), "{early}");
+    assert!(
+        early["waypoints"].as_array().unwrap().len()
+            > assumed["waypoints"].as_array().unwrap().len(),
+        "{early}"
+    );
+    // A fast aircraft (30 m/s) on a 60 s period (L1 430 m, against 122 m at 17 s) swings
+    // wide of a corner the default period passes, and the plan changes with it.
+    let fast = ["--speed-mps", "30"];
+    let default_period = plan(&fast);
+    let long_period = plan(&[&fast[..], &["--l1-period-s", "60"]].concat());
+    assert_ne!(route(&default_period), route(&long_period), "{long_period}");
+    // Out of range: refused, naming the flag.
+    for (flag, value) in [
+        ("--l1-period-s", "4.9"),
+        ("--l1-period-s", "61"),
+        ("--l1-period-s", "NaN"),
+        ("--acceptance-radius-m", "-1"),
+        ("--acceptance-radius-m", "501"),
+    ] {
+        let out = jink(&[&format!("{flag}={value}")]);
+        assert!(!out.status.success(), "{flag} {value} was taken");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(flag), "{flag} {value}: {err}");
+    }
+}
+
+#[test]
 fn jink_plan_starts_from_a_given_position_and_writes_wpl_and_qgc_plan_files() {
     let mission = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../tests/fixtures/interop/mission_2021_webster_field.json");
