@@ -95,6 +95,18 @@ pub(crate) const MAX_ACCEPTANCE_RADIUS_M: f64 = 500.0;
 /// The L1 periods a plan accepts, seconds.
 pub(crate) const L1_PERIOD_RANGE_S: std::ops::RangeInclusive<f64> = 5.0..=60.0;
 
+/// Whether `r` is an acceptance radius a plan accepts (finite, 0 to
+/// [`MAX_ACCEPTANCE_RADIUS_M`]): the API's rule and `jink plan`'s.
+pub(crate) fn valid_acceptance_radius_m(r: f64) -> bool {
+    r.is_finite() && (0.0..=MAX_ACCEPTANCE_RADIUS_M).contains(&r)
+}
+
+/// Whether `p` is an L1 period a plan accepts (finite, within [`L1_PERIOD_RANGE_S`]): the
+/// API's rule and `jink plan`'s.
+pub(crate) fn valid_l1_period_s(p: f64) -> bool {
+    p.is_finite() && L1_PERIOD_RANGE_S.contains(&p)
+}
+
 /// Bank angle of the default turn radius ([`default_turn_radius_m`]), degrees.
 pub const DEFAULT_BANK_DEG: f64 = 30.0;
 
@@ -373,7 +385,7 @@ async fn create_plan(
         ));
     }
     if let Some(r) = a.acceptance_radius_m
-        && !(r.is_finite() && (0.0..=MAX_ACCEPTANCE_RADIUS_M).contains(&r))
+        && !valid_acceptance_radius_m(r)
     {
         return Err(ApiError::field(
             "/aircraft/acceptance_radius_m",
@@ -381,7 +393,7 @@ async fn create_plan(
         ));
     }
     if let Some(p) = a.l1_period_s
-        && !(p.is_finite() && L1_PERIOD_RANGE_S.contains(&p))
+        && !valid_l1_period_s(p)
     {
         return Err(ApiError::field(
             "/aircraft/l1_period_s",

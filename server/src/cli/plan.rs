@@ -161,7 +161,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
     }
     let max_acceptance = crate::api::plans::MAX_ACCEPTANCE_RADIUS_M;
     if let Some(r) = args.acceptance_radius_m
-        && !(r.is_finite() && (0.0..=max_acceptance).contains(&r))
+        && !crate::api::plans::valid_acceptance_radius_m(r)
     {
         return fail(format!(
             "--acceptance-radius-m {r} is not in [0, {max_acceptance}]"
@@ -169,7 +169,7 @@ pub fn run(args: PlanArgs) -> ExitCode {
     }
     let l1_range = crate::api::plans::L1_PERIOD_RANGE_S;
     if let Some(p) = args.l1_period_s
-        && !(p.is_finite() && l1_range.contains(&p))
+        && !crate::api::plans::valid_l1_period_s(p)
     {
         return fail(format!(
             "--l1-period-s {p} is not in [{}, {}]",
