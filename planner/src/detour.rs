@@ -20,6 +20,7 @@ use crate::geometry::{Point, add, dist, scale, sub};
 use crate::mission::{Cylinder, Zones};
 use crate::prepass::{PrepassParams, prepass_leg};
 use crate::stack::StackItem;
+use crate::turn::turn_violations;
 
 /// Lattice parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -283,7 +284,15 @@ pub fn escape_candidates(
 /// directions all round (every [`DetourParams::reapproach_step_deg`], starting with the
 /// leg's own), inserted before `target`, and also replacing the avoid items between the
 /// previous fixed item and `target`. A point outside the fly zone or inside a cylinder at
-/// `alt_m` is not proposed. `from` is the aircraft's position. Deterministic.
+/// `alt_m` is not proposed. `from` is the aircraft's position.
+///
+/// Approaches whose turns can be flown at `turn_radius_m` as drawn (at the approach point
+/// and at an avoid item just before it, by [`crate::turn::turn_violations`]) come alone
+/// when there are any: a point too close behind the aircraft for the turn onto the
+/// approach would leave the plan with an avoid item it reports as too sharp. When none
+/// can (a waypoint a few tens of metres after the previous one, where every approach turns
+/// back on itself), all are proposed, and the aircraft loops round the approach point: the
+/// caller's flown check decides whether that captures the waypoint. Deterministic.
 #[allow(clippy::too_many_arguments)]
 pub fn reapproach_candidates(
     from: Point,
@@ -318,7 +327,7 @@ pub fn reapproach_candidates(
         .map_or(0, |k| k + 1);
     let step = params.reapproach_step_deg.max(1.0).to_radians();
     let n = (std::f64::consts::TAU / step).round().max(1.0) as usize;
-    let mut out = Vec::new();
+    let (mut out, mut sharp) = (Vec::new(), Vec::new());
     for k in 0..n {
         let a = base + k as f64 * step;
         for &l in &params.reapproach_r {
@@ -334,16 +343,39 @@ pub fn reapproach_candidates(
             let mut inserted = tail[..target].to_vec();
             inserted.push(approach);
             inserted.extend_from_slice(&tail[target..]);
-            out.push(inserted);
+            let mut keep = |cand: Vec<StackItem>, k: usize| {
+                if turn_flyable(from, &cand, k, turn_radius_m) {
+                    out.push(cand);
+                } else {
+                    sharp.push(cand);
+                }
+            };
+            keep(inserted, target);
             if first_avoid < target {
                 let mut replaced = tail[..first_avoid].to_vec();
                 replaced.push(approach);
                 replaced.extend_from_slice(&tail[target..]);
-                out.push(replaced);
+                keep(replaced, first_avoid);
             }
         }
     }
-    out
+    if out.is_empty() { sharp } else { out }
+}
+
+/// Whether the turns at `cand[k]` and at an avoid item just before it can be flown at
+/// radius `r` on the route from `from` through `cand` ([`crate::turn::turn_violations`],
+/// the rule a plan's avoid items are reported by): an approach point too close to the
+/// aircraft, or to a sharp neighbour, would leave the plan with an avoid item it says
+/// cannot be flown.
+fn turn_flyable(from: Point, cand: &[StackItem], k: usize, r: f64) -> bool {
+    let route: Vec<Point> = std::iter::once(from)
+        .chain(cand.iter().map(|i| i.p_m))
+        .collect();
+    // The approach point (route index k + 1) and an avoid item just before it, whose turn
+    // the approach point changes.
+    !turn_violations(&route, r, None).iter().any(|v| {
+        (v.index == k + 1 || v.index == k) && v.index >= 1 && !cand[v.index - 1].is_fixed()
+    })
 }
 
 #[cfg(test)]
@@ -577,8 +609,26 @@ mod tests {
             )
         };
         let c = cands(&[]);
-        // 4 directions x 2 lengths, each inserted and replacing the avoid item.
-        assert_eq!(c.len(), 16);
+        // 4 directions x 2 lengths, each inserted and replacing the avoid item, less those
+        // whose turn at the approach point (or at the avoid item before it) cannot be flown
+        // at 40 m: only the approaches that replace the avoid item, back along its leg or
+        // from the south-west, are left. From the north the approach turns back on itself
+        // before W1; inserted after the avoid item, it turns too close to it.
+        let flyable = |t: &Vec<StackItem>| {
+            let route: Vec<Point> = std::iter::once([0.0, -100.0])
+                .chain(t.iter().map(|i| i.p_m))
+                .collect();
+            crate::turn::turn_violations(&route, 40.0, None)
+                .iter()
+                .all(|v| t[v.index - 1].is_fixed())
+        };
+        assert_eq!(c.len(), 4, "{c:?}");
+        assert!(c.iter().all(flyable));
+        assert!(
+            c.iter()
+                .all(|t| t.len() == 4 && t[1].kind == crate::stack::ItemKind::Avoid)
+        );
+        assert!(c.iter().all(|t| t[1].p_m[1] < 400.0), "{c:?}");
         for t in &c {
             let k = t.iter().position(|i| *i == w1).unwrap();
             let a = t[k - 1];
@@ -598,13 +648,13 @@ mod tests {
             std::f64::consts::FRAC_1_SQRT_2,
         ];
         let want = [w1.p_m[0] - 120.0 * u[0], w1.p_m[1] - 120.0 * u[1]];
-        assert!(dist(c[0][2].p_m, want) < 1e-6, "{:?}", c[0][2]);
+        assert!(dist(c[0][1].p_m, want) < 1e-6, "{:?}", c[0][1]);
         // A point inside a cylinder (grown by a fifth) is not proposed.
         let cyl = Cylinder {
             center_m: want,
             radius_m: 10.0,
             top_m: 200.0,
         };
-        assert_eq!(cands(&[cyl]).len(), 14);
+        assert_eq!(cands(&[cyl]).len(), 3);
     }
 }
