@@ -582,6 +582,43 @@ mod tests {
     }
 
     #[test]
+    fn when_no_approach_can_be_flown_as_drawn_every_one_is_proposed() {
+        // W1 45 m east of W0 with a 40 m turn radius: an approach point 120 or 200 m before
+        // W1, reached from W0, turns back by more than 150 degrees whichever side it is on,
+        // so none is flyable as drawn; all 8 (4 directions x 2 lengths, inserted: no avoid
+        // item to replace) are proposed, for the flown check to judge.
+        let tail = vec![
+            StackItem::mission(0, [0.0, 400.0], 100.0),
+            StackItem::mission(1, [45.0, 400.0], 100.0),
+            StackItem::mission(2, [45.0, -150.0], 100.0),
+        ];
+        let params = DetourParams {
+            reapproach_step_deg: 90.0,
+            ..DetourParams::default()
+        };
+        let c = reapproach_candidates(
+            [0.0, 0.0],
+            &tail,
+            1,
+            100.0,
+            40.0,
+            &[],
+            &Zones::default(),
+            &params,
+        );
+        assert_eq!(c.len(), 8, "{c:?}");
+        for t in &c {
+            assert_eq!(t.len(), 4);
+            assert_eq!((t[0], t[2], t[3]), (tail[0], tail[1], tail[2]));
+            let route: Vec<Point> = std::iter::once([0.0, 0.0])
+                .chain(t.iter().map(|i| i.p_m))
+                .collect();
+            let bad = crate::turn::turn_violations(&route, 40.0, None);
+            assert!(bad.iter().any(|v| v.index == 2), "{t:?} {bad:?}");
+        }
+    }
+
+    #[test]
     fn a_reapproach_puts_one_point_before_the_waypoint_on_every_side() {
         // W0 (fixed), an avoid item, then W1 at (0, 400) reached from the avoid item at
         // (100, 300); turn radius 40 m, approach lengths 3 and 5 radii, every 90 degrees.
@@ -612,8 +649,9 @@ mod tests {
         // 4 directions x 2 lengths, each inserted and replacing the avoid item, less those
         // whose turn at the approach point (or at the avoid item before it) cannot be flown
         // at 40 m: only the approaches that replace the avoid item, back along its leg or
-        // from the south-west, are left. From the north the approach turns back on itself
-        // before W1; inserted after the avoid item, it turns too close to it.
+        // from the south-west, are left. From the north-east and north-west the approach
+        // turns back on itself before W1; inserted after the avoid item, it turns too close
+        // to it.
         let flyable = |t: &Vec<StackItem>| {
             let route: Vec<Point> = std::iter::once([0.0, -100.0])
                 .chain(t.iter().map(|i| i.p_m))
