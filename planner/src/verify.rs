@@ -257,25 +257,6 @@ pub struct Verification {
     pub conflict: Option<Conflict>,
 }
 
-/// The figures [`Verification::better_than`] compares, in order, for two unclear routes
-/// both marginal (`marginal`) or both not: the near-term peak first; then, unclear only
-/// just, the graded peak before the exposure, and otherwise the exposure before the graded
-/// peak. Past the near window a graded peak that reads high is a prediction far ahead,
-/// which the next plans revise; the metres flown at risk are what a route commits to.
-/// Ranked by the peak first, an aircraft chased from behind by a sphere kept to the lane
-/// the sphere flew down, whose peak read lower only because the sphere was farther along
-/// it (issue 10, 14 m/s Webster Field, seed 112).
-fn unclear_order(a: &Verification, b: &Verification, marginal: bool) -> [(f64, f64); 3] {
-    let near = (a.near_peak_risk, b.near_peak_risk);
-    let graded = (a.graded_peak_risk, b.graded_peak_risk);
-    let exposure = (a.exposure_m, b.exposure_m);
-    if marginal {
-        [near, graded, exposure]
-    } else {
-        [near, exposure, graded]
-    }
-}
-
 impl Verification {
     /// Violations of the flown path that the ranking puts before danger: cylinders entered
     /// and an unreachable item.
@@ -317,9 +298,8 @@ impl Verification {
     /// exits; then fewer fly-zone exits, clear before
     /// unclear, then (both unclear) unclear only just ([`Verification::marginal`]) before
     /// not, among those fewer missed waypoints, then lower near-term peak, lower graded
-    /// peak, lower exposure, and among routes not marginal lower near-term peak, lower
-    /// exposure, lower graded peak (see `unclear_order`); (both clear) fewer missed
-    /// waypoints; then shorter. True when `self` is strictly better than `other`.
+    /// peak, lower exposure; (both clear) fewer missed waypoints; then shorter. True when `self` is
+    /// strictly better than `other`.
     ///
     /// The danger rule puts a collision expected within [`VerifyParams::near_s`] above a
     /// boundary excursion: a hit costs a team about fifteen minutes of flight, and an
@@ -365,7 +345,11 @@ impl Verification {
             if a_m && self.missed_waypoints != other.missed_waypoints {
                 return self.missed_waypoints < other.missed_waypoints;
             }
-            for (a, b) in unclear_order(self, other, a_m) {
+            for (a, b) in [
+                (self.near_peak_risk, other.near_peak_risk),
+                (self.graded_peak_risk, other.graded_peak_risk),
+                (self.exposure_m, other.exposure_m),
+            ] {
                 if (a - b).abs() > 1e-9 {
                     return a < b;
                 }
@@ -477,9 +461,11 @@ impl Verification {
                     },
                     (false, false) => {}
                 }
-                // Both marginal, or neither (a route marginal so far that could stop being
-                // so is undecided above): the order better_than reads for the pair.
-                for (a, b) in unclear_order(self, rival, self.marginal(safe_risk)) {
+                for (a, b) in [
+                    (self.near_peak_risk, rival.near_peak_risk),
+                    (self.graded_peak_risk, rival.graded_peak_risk),
+                    (self.exposure_m, rival.exposure_m),
+                ] {
                     if a > b + tol {
                         return true;
                     }
@@ -2057,72 +2043,6 @@ mod tests {
             ..va
         };
         assert!(v.better_than(&risky, 0.05, 0.25));
-    }
-
-    #[test]
-    fn among_routes_not_unclear_only_just_less_exposure_wins_over_a_lower_graded_peak() {
-        // Two routes unclear beyond the near window, equal near peaks: one keeps to the
-        // lane a chasing sphere flies down (graded peak 0.3, 120 m at risk), the other
-        // turns out of it (graded peak 0.45, a short 30 m at risk). The metres at risk
-        // decide before the far peak (issue 10, 14 m/s Webster Field, seed 112).
-        let lane = Verification {
-            near_peak_risk: 0.01,
-            graded_peak_risk: 0.3,
-            peak_risk: 0.6,
-            exposure_m: 120.0,
-            length_m: 900.0,
-            ..Verification::default()
-        };
-        let out = Verification {
-            graded_peak_risk: 0.45,
-            exposure_m: 30.0,
-            length_m: 1300.0,
-            ..lane
-        };
-        assert!(!lane.marginal(0.05) && !out.marginal(0.05));
-        assert!(out.better_than(&lane, 0.05, 0.25));
-        assert!(!lane.better_than(&out, 0.05, 0.25));
-        // The near peak still comes first.
-        let out_nearer = Verification {
-            near_peak_risk: 0.02,
-            ..out
-        };
-        assert!(lane.better_than(&out_nearer, 0.05, 0.25));
-        // Equal exposure: the graded peak decides, then the length.
-        let lane_equal = Verification {
-            exposure_m: 30.0,
-            ..lane
-        };
-        assert!(lane_equal.better_than(&out, 0.05, 0.25));
-        // Unclear only just (both within twice the safe risk), the graded peak still
-        // comes before the exposure.
-        let (lane_m, out_m) = (
-            Verification {
-                graded_peak_risk: 0.06,
-                ..lane
-            },
-            Verification {
-                graded_peak_risk: 0.09,
-                ..out
-            },
-        );
-        assert!(lane_m.marginal(0.05) && out_m.marginal(0.05));
-        assert!(lane_m.better_than(&out_m, 0.05, 0.25));
-        // Stopping early agrees: a candidate flown part of the way with more exposure
-        // already than the rival's whole route cannot beat it, even with a lower graded
-        // peak so far; with less exposure so far it is undecided.
-        let partial = Verification {
-            graded_peak_risk: 0.2,
-            exposure_m: 121.0,
-            length_m: 400.0,
-            ..lane
-        };
-        assert!(partial.cannot_beat(&out, 0.05, 0.25, false));
-        let partial_less = Verification {
-            exposure_m: 29.0,
-            ..partial
-        };
-        assert!(!partial_less.cannot_beat(&out, 0.05, 0.25, false));
     }
 
     #[test]
