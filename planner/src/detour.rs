@@ -20,7 +20,7 @@ use crate::geometry::{Point, add, dist, scale, sub};
 use crate::mission::{Cylinder, Zones};
 use crate::prepass::{PrepassParams, prepass_leg};
 use crate::stack::StackItem;
-use crate::turn::turn_violations;
+use crate::turn::sharp_avoid_items;
 
 /// Lattice parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -362,20 +362,15 @@ pub fn reapproach_candidates(
     if out.is_empty() { sharp } else { out }
 }
 
-/// Whether the turns at `cand[k]` and at an avoid item just before it can be flown at
-/// radius `r` on the route from `from` through `cand` ([`crate::turn::turn_violations`],
-/// the rule a plan's avoid items are reported by): an approach point too close to the
-/// aircraft, or to a sharp neighbour, would leave the plan with an avoid item it says
-/// cannot be flown.
+/// Whether the turns at `cand[k]` (the approach point) and at an avoid item just before it,
+/// whose turn the approach point changes, can be flown at radius `r` on the route from
+/// `from` through `cand` ([`sharp_avoid_items`], the rule a plan's avoid items are reported
+/// by): an approach point too close to the aircraft, or to a sharp neighbour, would leave
+/// the plan with an avoid item it says cannot be flown.
 fn turn_flyable(from: Point, cand: &[StackItem], k: usize, r: f64) -> bool {
-    let route: Vec<Point> = std::iter::once(from)
-        .chain(cand.iter().map(|i| i.p_m))
-        .collect();
-    // The approach point (route index k + 1) and an avoid item just before it, whose turn
-    // the approach point changes.
-    !turn_violations(&route, r, None).iter().any(|v| {
-        (v.index == k + 1 || v.index == k) && v.index >= 1 && !cand[v.index - 1].is_fixed()
-    })
+    !sharp_avoid_items(from, cand, r)
+        .iter()
+        .any(|&i| i == k || i + 1 == k)
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@
 //! north), i.e. the direction `[sin h, cos h]` in ENU.
 
 use crate::geometry::{Point, add, dist, perp, scale, turn_angle_rad};
+use crate::stack::StackItem;
 
 /// A vertex whose turn cannot be flown at the given radius.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,6 +44,21 @@ pub fn reachable_from_heading(start: Point, heading_rad: f64, target: Point, r: 
     let left = add(start, scale(perp(dir), r));
     let right = add(start, scale(perp(dir), -r));
     dist(left, target) >= r - 1e-9 && dist(right, target) >= r - 1e-9
+}
+
+/// Indices into `tail` of the avoid items whose turns cannot be flown at radius `r` on the
+/// route from `from` (the aircraft) through `tail`, by [`turn_violations`] without a start
+/// heading: the rule a plan's `turn_violations` reports by, and the one its candidates are
+/// kept to.
+pub fn sharp_avoid_items(from: Point, tail: &[StackItem], r: f64) -> Vec<usize> {
+    let route: Vec<Point> = std::iter::once(from)
+        .chain(tail.iter().map(|i| i.p_m))
+        .collect();
+    turn_violations(&route, r, None)
+        .into_iter()
+        .filter(|v| v.index >= 1 && !tail[v.index - 1].is_fixed())
+        .map(|v| v.index - 1)
+        .collect()
 }
 
 /// Vertices of `points` whose turns cannot be flown at turn radius `r`. With

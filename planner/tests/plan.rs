@@ -335,9 +335,7 @@ fn a_waypoint_just_behind_the_aircraft_gets_an_approach_that_can_be_flown() {
     assert_eq!(p.outcome, PlanOutcome::Exact);
     assert!(p.turn_violations.is_empty(), "{:?}", p.items);
     // Independently of the planner's report: every avoid item's turn fits its legs.
-    let pts: Vec<Point> = std::iter::once(st.p_m)
-        .chain(p.items[1..].iter().map(|i| i.p_m))
-        .collect();
+    let pts: Vec<Point> = route(&st, &p.items, 1).iter().map(|&(q, _)| q).collect();
     let bad = planner::turn::turn_violations(&pts, 15.0, None);
     assert!(
         bad.iter()
@@ -433,9 +431,7 @@ proptest! {
         // read independently; and the only ones it may keep are set-up approaches (an
         // avoid item right before a waypoint) where no approach can be drawn flyable, the
         // aircraft looping round it: its flown check must then capture every waypoint.
-        let pts: Vec<Point> = std::iter::once(st.p_m)
-            .chain(p.items[1..].iter().map(|i| i.p_m))
-            .collect();
+        let pts: Vec<Point> = route(&st, &p.items, 1).iter().map(|&(q, _)| q).collect();
         let sharp: Vec<usize> = planner::turn::turn_violations(&pts, 15.0, None)
             .iter()
             .map(|v| v.index)

@@ -64,7 +64,7 @@ use crate::prepass::{PrepassParams, prepass_leg};
 use crate::simplify::simplify_path;
 use crate::stack::{ItemKind, StackDiff, StackItem, diff, mission_stack};
 use crate::termination::Termination;
-use crate::turn::turn_violations;
+use crate::turn::sharp_avoid_items;
 use crate::verify::{Rival, Verification, VerifyParams, verify_route, verify_route_to_beat};
 
 mod select;
@@ -962,13 +962,9 @@ pub fn plan_until(
 
     let mut items = stack[..ci].to_vec();
     items.extend_from_slice(&best_tail);
-    let route: Vec<Point> = std::iter::once(s.p_m)
-        .chain(best_tail.iter().map(|i| i.p_m))
-        .collect();
-    let turn_bad: Vec<usize> = turn_violations(&route, req.aircraft.turn_radius_m, None)
+    let turn_bad: Vec<usize> = sharp_avoid_items(s.p_m, &best_tail, req.aircraft.turn_radius_m)
         .into_iter()
-        .filter(|v| v.index >= 1 && best_tail[v.index - 1].kind == ItemKind::Avoid)
-        .map(|v| ci + v.index - 1)
+        .map(|i| ci + i)
         .collect();
 
     let safe = best.is_clear(p.safe_risk);

@@ -5,8 +5,8 @@
 use crate::cost::{LegEnv, PathRisk, better};
 use crate::geometry::{Point, dist};
 use crate::mission::Zones;
-use crate::stack::{ItemKind, StackItem};
-use crate::turn::turn_violations;
+use crate::stack::StackItem;
+use crate::turn::sharp_avoid_items;
 use crate::verify::{Conflict, Verification};
 
 use super::AircraftState;
@@ -142,14 +142,7 @@ pub(super) fn remove_infeasible_turns<'e>(
     step_m: f64,
 ) {
     for _ in 0..4 {
-        let route: Vec<Point> = std::iter::once(s.p_m)
-            .chain(tail.iter().map(|i| i.p_m))
-            .collect();
-        let bad: Vec<usize> = turn_violations(&route, turn_radius_m, None)
-            .into_iter()
-            .filter(|v| v.index >= 1 && tail[v.index - 1].kind == ItemKind::Avoid)
-            .map(|v| v.index - 1)
-            .collect();
+        let bad = sharp_avoid_items(s.p_m, tail, turn_radius_m);
         if bad.is_empty() {
             return;
         }
