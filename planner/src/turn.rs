@@ -46,6 +46,50 @@ pub fn reachable_from_heading(start: Point, heading_rad: f64, target: Point, r: 
     dist(left, target) >= r - 1e-9 && dist(right, target) >= r - 1e-9
 }
 
+/// Metres an aircraft at `start` with compass heading `heading_rad` flies beyond the
+/// straight line to `target` when it first turns at radius `r` toward it and then flies
+/// straight (the shorter of the two circle-then-straight paths, left or right, that reach
+/// it): `0` for a target dead ahead, about `r * (phi - sin phi)` for one far off at
+/// `phi` radians off the heading, `pi * r` for one far behind. A route's polyline starts at
+/// the aircraft's position whatever its heading; this is what that leaves out (the route
+/// ranking adds it with [`crate::verify::VerifyParams::turn_in_weight`] above 0, off by
+/// default: [`crate::verify::Verification::turn_in_m`]). `0` when `r` is not positive.
+pub fn turn_in_m(start: Point, heading_rad: f64, target: Point, r: f64) -> f64 {
+    let d = dist(start, target);
+    if r <= 0.0 || d < 1e-9 {
+        return 0.0;
+    }
+    let dir = [heading_rad.sin(), heading_rad.cos()];
+    let mut best = f64::INFINITY;
+    // side +1: the left circle, flown counter-clockwise; -1: the right one, clockwise. A
+    // target inside one circle is reached round the other (it cannot be inside both).
+    for side in [1.0f64, -1.0] {
+        let c = add(start, scale(perp(dir), side * r));
+        let dc = dist(c, target);
+        if dc < r {
+            continue;
+        }
+        let tangent = (dc * dc - r * r).max(0.0).sqrt();
+        let a0 = (start[1] - c[1]).atan2(start[0] - c[0]);
+        let g = (target[1] - c[1]).atan2(target[0] - c[0]);
+        // Where the straight leaves the circle, as an angle round the centre.
+        let b = g - side * (r / dc).min(1.0).acos();
+        let swept = (side * (b - a0)).rem_euclid(std::f64::consts::TAU);
+        // A sweep within a hair of a whole circle is no sweep (rounding dead ahead).
+        let swept = if swept > std::f64::consts::TAU - 1e-9 {
+            0.0
+        } else {
+            swept
+        };
+        best = best.min(r * swept + tangent);
+    }
+    if best.is_finite() {
+        (best - d).max(0.0)
+    } else {
+        0.0
+    }
+}
+
 /// Indices into `tail` of the avoid items whose turns cannot be flown at radius `r` on the
 /// route from `from` (the aircraft) through `tail`, by [`turn_violations`] without a start
 /// heading: the rule a plan's `turn_violations` reports by, and the one its candidates are
@@ -113,6 +157,62 @@ pub fn turn_violations(
 mod tests {
     use super::*;
     use approx::assert_relative_eq;
+
+    /// Metres a pursuit at the turn rate `v / r` (turn toward the target as hard as
+    /// allowed, then straight at it) flies from `start` on `heading_rad` until within
+    /// 0.05 m of `target`: an independent reading of the turn onto a first leg.
+    fn pursuit_m(start: Point, heading_rad: f64, target: Point, r: f64) -> f64 {
+        let (v, dt) = (20.0, 0.0005);
+        let (mut p, mut th) = (start, std::f64::consts::FRAC_PI_2 - heading_rad);
+        let mut flown = 0.0;
+        while dist(p, target) > 0.05 {
+            let want = (target[1] - p[1]).atan2(target[0] - p[0]);
+            let err = (want - th + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            th += err.clamp(-v / r * dt, v / r * dt);
+            p = add(p, [v * dt * th.cos(), v * dt * th.sin()]);
+            flown += v * dt;
+            assert!(flown < 1e5, "the pursuit never got there");
+        }
+        flown
+    }
+
+    #[test]
+    fn the_turn_onto_a_first_leg_is_what_a_hard_turn_then_straight_flies_beyond_the_leg() {
+        let r = 35.0;
+        let start = [10.0, -20.0];
+        for heading_deg in [0.0f64, 37.0, 200.0] {
+            let h = heading_deg.to_radians();
+            // Bearings off the heading, either side (short of dead astern, where the
+            // pursuit's side is a coin toss), at 3 to 20 turn radii.
+            for off_deg in [0.0f64, 20.0, -45.0, 90.0, -120.0, 170.0] {
+                for k in [3.0, 8.0, 20.0] {
+                    let b = h + off_deg.to_radians();
+                    let target = add(start, [k * r * b.sin(), k * r * b.cos()]);
+                    let extra = turn_in_m(start, h, target, r);
+                    let flown = pursuit_m(start, h, target, r);
+                    assert!(
+                        (dist(start, target) + extra - flown).abs() < 0.3,
+                        "heading {heading_deg} off {off_deg} at {k} r: {extra} extra, \
+                         flown {flown} for {}",
+                        dist(start, target)
+                    );
+                }
+            }
+        }
+        // Dead ahead nothing; far behind half a circle; far off at phi about r (phi - sin
+        // phi); no radius, nothing.
+        assert!(turn_in_m(start, 0.0, [10.0, 500.0], r) < 1e-6);
+        let behind = turn_in_m(start, 0.0, [10.0, -20.0 - 50.0 * r], r);
+        assert!(
+            (behind - std::f64::consts::PI * r).abs() < 0.05 * r,
+            "{behind}"
+        );
+        let phi = std::f64::consts::FRAC_PI_2;
+        let abeam = turn_in_m(start, 0.0, [10.0 + 100.0 * r, -20.0], r);
+        assert!((abeam - r * (phi - phi.sin())).abs() < 0.02 * r, "{abeam}");
+        assert_eq!(turn_in_m(start, 0.0, [10.0, -500.0], 0.0), 0.0);
+    }
 
     #[test]
     fn a_right_angle_needs_one_radius_each_way() {
