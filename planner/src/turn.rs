@@ -37,13 +37,19 @@ pub fn fillet_tangent_m(angle_rad: f64, r: f64) -> f64 {
     r * (angle_rad / 2.0).tan()
 }
 
+/// Centres of the two circles of radius `r` an aircraft at `start` flying `heading_rad`
+/// turns on: `[left, right]`.
+fn turning_centres(start: Point, heading_rad: f64, r: f64) -> [Point; 2] {
+    let left = perp([heading_rad.sin(), heading_rad.cos()]);
+    [add(start, scale(left, r)), add(start, scale(left, -r))]
+}
+
 /// Whether a target point can be reached from `start` flying `heading_rad` without
 /// turning tighter than `r`: it must lie outside both turning circles.
 pub fn reachable_from_heading(start: Point, heading_rad: f64, target: Point, r: f64) -> bool {
-    let dir = [heading_rad.sin(), heading_rad.cos()];
-    let left = add(start, scale(perp(dir), r));
-    let right = add(start, scale(perp(dir), -r));
-    dist(left, target) >= r - 1e-9 && dist(right, target) >= r - 1e-9
+    turning_centres(start, heading_rad, r)
+        .iter()
+        .all(|&c| dist(c, target) >= r - 1e-9)
 }
 
 /// Metres an aircraft at `start` with compass heading `heading_rad` flies beyond the
@@ -59,12 +65,13 @@ pub fn turn_in_m(start: Point, heading_rad: f64, target: Point, r: f64) -> f64 {
     if r <= 0.0 || d < 1e-9 {
         return 0.0;
     }
-    let dir = [heading_rad.sin(), heading_rad.cos()];
     let mut best = f64::INFINITY;
     // side +1: the left circle, flown counter-clockwise; -1: the right one, clockwise. A
     // target inside one circle is reached round the other (it cannot be inside both).
-    for side in [1.0f64, -1.0] {
-        let c = add(start, scale(perp(dir), side * r));
+    for (c, side) in turning_centres(start, heading_rad, r)
+        .into_iter()
+        .zip([1.0, -1.0])
+    {
         let dc = dist(c, target);
         if dc < r {
             continue;
