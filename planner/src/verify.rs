@@ -62,9 +62,15 @@ pub struct VerifyParams {
     /// The risk a route may meet at the end of the horizon. The limit is the plan's safe
     /// risk up to [`VerifyParams::near_s`], then grows linearly to this at the horizon:
     /// the far prediction is spread thin and is revised every replan, so it is a cost
-    /// there, not a wall (receding horizon). Default 0.5 (0.3 until 2026-11-29: 0.5 flew
-    /// about 16 s shorter a run on Webster Field over 1,200 runs, with sphere hits within
-    /// chance; README, "Now: a looser far limit").
+    /// there, not a wall (receding horizon). Default 1 since 2026-12-06: at the horizon
+    /// nothing is a wall, 20 s ahead the limit is 0.55 (at the defaults); paired by seed
+    /// with 0.5 over 1,200 runs (Webster Field and the generated families) it flew 1-10 s
+    /// shorter a run with 4 sphere hits against 7 (README, "Now: the far limit at 1").
+    /// 0.5 from 2026-11-29,
+    /// 0.3 before. At 1 the overdue budget ([`VerifyParams::overdue_far_risk_per_s`])
+    /// cannot raise it further, and risk read past the horizon
+    /// ([`VerifyParams::read_past_horizon`]) no longer makes a route unclear (it still
+    /// counts in the graded peak that ranks unclear routes); both act when it is set lower.
     pub far_risk: f64,
     /// The L1 distance of the track-following autopilot the second flown path models,
     /// in seconds of flight: `L1 = l1_s * speed` (ArduPlane's defaults, period 17 s and
@@ -159,7 +165,7 @@ impl Default for VerifyParams {
             step_m: 3.0,
             near_s: 10.0,
             early_s: 15.0,
-            far_risk: 0.5,
+            far_risk: 1.0,
             l1_s: l1_seconds(17.0),
             capture_m: 25.0,
             acceptance_m: 10.0,
@@ -1868,27 +1874,47 @@ mod tests {
     #[test]
     fn the_risk_limit_is_graded_in_time_a_wall_near_and_a_cost_far() {
         // Flying north at 20 m/s the band is met at t = 24 s. Starting at y = 0 it is
-        // 14 s past the 10 s near window: the limit there is 0.05 + (0.5 - 0.05) * 14 / 50
-        // = 0.18 (the default far limit 0.5), below 0.2: unclear. Starting at y = -600, it
-        // is met at t = 54 s, where the limit is 0.05 + 0.45 * 44 / 50 = 0.45: clear.
+        // 14 s past the 10 s near window: with a far limit of 0.5 (the default until
+        // 2026-12-06) the limit there is 0.05 + (0.5 - 0.05) * 14 / 50 = 0.18, below 0.2:
+        // unclear. Starting at y = -600, it is met at t = 54 s, where the limit is
+        // 0.05 + 0.45 * 44 / 50 = 0.45: clear.
+        let half = VerifyParams {
+            far_risk: 0.5,
+            ..VerifyParams::default()
+        };
         let tail = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
-        let near = check(&Band, &[], &state(0.0), &tail);
+        let near = check_with(&Band, &[], &state(0.0), &tail, &half);
         assert!(!near.is_clear(0.05), "{near:?}");
         assert!(matches!(near.conflict, Some(Conflict::Risk { .. })));
         let mut s = state(0.0);
         s.p_m = [0.0, -600.0];
-        let far = check(&Band, &[], &s, &tail);
+        let far = check_with(&Band, &[], &s, &tail, &half);
         assert!(far.is_clear(0.05), "{far:?}");
         assert!(
             (far.peak_risk - 0.2).abs() < 1e-12,
             "the raw peak is still reported"
         );
-        let far_risk = VerifyParams::default().far_risk;
-        let want = 0.2 * 0.05 / (0.05 + (far_risk - 0.05) * 44.0 / 50.0);
+        let want = 0.2 * 0.05 / (0.05 + (0.5 - 0.05) * 44.0 / 50.0);
         assert!((far.graded_peak_risk - want).abs() < 0.01, "{far:?}");
         // A far band is still worse than no band at all when lengths are equal.
-        let clean = check(&NoRisk, &[], &s, &tail);
+        let clean = check_with(&NoRisk, &[], &s, &tail, &half);
         assert!(!far.better_than(&clean, 0.05, 0.25));
+        // At the default far limit, 1, the limit 24 s ahead is 0.05 + 0.95 * 14 / 50 =
+        // 0.316: the band is a cost there, not a wall, and still worse than no band.
+        assert_eq!(VerifyParams::default().far_risk, 1.0);
+        let cost = check(&Band, &[], &state(0.0), &tail);
+        assert!(cost.is_clear(0.05), "{cost:?}");
+        let want = 0.2 * 0.05 / (0.05 + 0.95 * 14.0 / 50.0);
+        assert!((cost.graded_peak_risk - want).abs() < 0.01, "{cost:?}");
+        assert!(!cost.better_than(&check(&NoRisk, &[], &state(0.0), &tail), 0.05, 0.25));
+        // Met 4 s ahead (from y = 400), within the near window, it is a wall whatever the
+        // far limit.
+        s.p_m = [0.0, 400.0];
+        for params in [&half, &VerifyParams::default()] {
+            let close = check_with(&Band, &[], &s, &tail, params);
+            assert!(!close.is_clear(0.05), "{close:?}");
+            assert!((close.near_peak_risk - 0.2).abs() < 1e-12, "{close:?}");
+        }
     }
 
     /// Risk 0.2 within 60 m of (0, 500) at every time: a slow sphere circling near a
@@ -1921,8 +1947,11 @@ mod tests {
             StackItem::avoid([800.0, 800.0], 100.0),
             wp,
         ];
+        // At a far limit of 0.5 (the default until 2026-12-06; at 1 risk read past the
+        // horizon can no longer make a route unclear, only rank it).
         let spent = VerifyParams {
             delay_credit_s: 0.0,
+            far_risk: 0.5,
             ..VerifyParams::default()
         };
         let blind = VerifyParams {
@@ -1982,21 +2011,26 @@ mod tests {
     #[test]
     fn putting_off_a_waypoint_in_a_risky_neighbourhood_is_credited_only_up_to_the_delay_credit() {
         // The waypoint is 500 m north: flown straight, the ring is met at t = 22 s, where
-        // the limit is 0.05 + 0.25 * 12 / 50 = 0.11 < 0.2: unclear. A detour through
+        // the limit is 0.05 + 0.45 * 12 / 50 = 0.16 < 0.2 at a far limit of 0.5 (the default
+        // until 2026-12-06; at 1 it is 0.28 there and the ring no wall): unclear. A detour through
         // (450, 250) meets the ring at t = 48 s, 26 s late; with the default 60 s of
         // credit the limit there is that of its own arrival, 0.24 > 0.2: clear (a wait for
         // a sphere to go by). With no credit left (the waypoint put off at every replan
         // for a minute), the ring is read as far along the mission as straight: the
         // detour is no clearer than flying straight.
+        let half = VerifyParams {
+            far_risk: 0.5,
+            ..VerifyParams::default()
+        };
         let wp = StackItem::mission(0, [0.0, 500.0], 100.0);
-        let direct = check(&Ring, &[], &state(0.0), &[wp]);
+        let direct = check_with(&Ring, &[], &state(0.0), &[wp], &half);
         assert!(!direct.is_clear(0.05), "{direct:?}");
         let route = [StackItem::avoid([450.0, 250.0], 100.0), wp];
-        let waited = check(&Ring, &[], &state(0.0), &route);
+        let waited = check_with(&Ring, &[], &state(0.0), &route, &half);
         assert!(waited.is_clear(0.05), "{waited:?}");
         let spent = VerifyParams {
             delay_credit_s: 0.0,
-            ..VerifyParams::default()
+            ..half
         };
         assert!(check_with(&Ring, &[], &state(0.0), &[wp], &spent) == direct);
         let detour = check_with(&Ring, &[], &state(0.0), &route, &spent);

@@ -152,9 +152,12 @@ fn the_time_a_waypoint_has_been_pending_uses_up_the_delay_a_route_may_take_to_re
         planner::StackItem::mission(1, [500.0, 0.0], 100.0),
     ];
     // The delay credit alone: the far limit's overdue budget (the next test) off, and a
-    // 60 s horizon, within which the loop meets the ring.
+    // 60 s horizon, within which the loop meets the ring. The far limit 0.5 (the default
+    // until 2026-12-06): at 1 the ring (0.3) met 22 s ahead straight is under its limit
+    // there (0.1 + 0.9 * 12 / 50 = 0.32), and the credit has nothing to decide.
     let mut cfg = ReplanConfig::default().horizon_s(60.0);
     cfg.plan.verify.overdue_far_risk_per_s = 0.0;
+    cfg.plan.verify.far_risk = 0.5;
     let plan_with = |pending: Option<f64>| {
         let r = Replan {
             current_index: 0,
@@ -190,7 +193,9 @@ fn an_overdue_waypoint_earns_a_looser_far_limit_but_never_a_looser_near_one() {
     // The straight stack to the waypoint at (500, 0) inside the ring (risk 0.3), met 22 s
     // ahead at 20 m/s. The limit there, 0.1 + (far - 0.1) * (22 - 10) / (40 - 10) at a
     // 40 s horizon (the arithmetic is the rule's; the default horizon, 30 s, would clear
-    // the ring at the limit alone): 0.26 at the default far limit 0.5, so the route is not clear
+    // the ring at the limit alone): 0.26 at a far limit of 0.5 (the default until
+    // 2026-12-06; at today's default, 1, nothing is left for the budget to raise, and the
+    // limit there is 0.46, clear from the start), so the route is not clear
     // while the waypoint is within its delay credit (60 s) or only just past it (65 s: far
     // 0.55, limit 0.28). Pending 200 s, 140 s overdue, the budget (0.01 a second) has
     // raised the far limit to its cap of 1: 0.46 there, clear.
@@ -213,11 +218,13 @@ fn an_overdue_waypoint_earns_a_looser_far_limit_but_never_a_looser_near_one() {
             .plan
             .verification
     };
-    let cfg = ReplanConfig::default().horizon_s(40.0);
+    let mut cfg = ReplanConfig::default().horizon_s(40.0);
     let safe = cfg.plan.safe_risk;
     assert_eq!(cfg.plan.verify.overdue_far_risk_per_s, 0.01);
     assert_eq!(cfg.plan.verify.overdue_far_risk_max, 1.0);
-    assert_eq!(cfg.plan.verify.far_risk, 0.5);
+    assert_eq!(cfg.plan.verify.far_risk, 1.0);
+    assert!(plan_with(&cfg, 0.0, None).is_clear(safe));
+    cfg.plan.verify.far_risk = 0.5;
     for pending in [None, Some(30.0), Some(60.0), Some(65.0)] {
         let v = plan_with(&cfg, 0.0, pending);
         assert!(!v.is_clear(safe), "pending {pending:?}: {v:?}");
