@@ -65,9 +65,9 @@ pub struct VerifyParams {
     /// there, not a wall (receding horizon). Default 1 since 2026-12-06: at the horizon
     /// nothing is a wall, 20 s ahead the limit is 0.55 (at the defaults); paired by seed
     /// with 0.5 over 1,200 runs (Webster Field and the generated families) it flew 1-10 s
-    /// shorter a run with 4 sphere hits against 7 (README, "Now: the far limit at 1").
-    /// 0.5 from 2026-11-29,
-    /// 0.3 before. At 1 the overdue budget ([`VerifyParams::overdue_far_risk_per_s`])
+    /// shorter a run with 4 sphere hits against 7 (README, "Now: the far limit at 1");
+    /// 0.5 from 2026-11-29, 0.3 before. At 1 the overdue budget
+    /// ([`VerifyParams::overdue_far_risk_per_s`])
     /// cannot raise it further, and risk read past the horizon
     /// ([`VerifyParams::read_past_horizon`]) no longer makes a route unclear (it still
     /// counts in the graded peak that ranks unclear routes); both act when it is set lower.
@@ -2011,11 +2011,11 @@ mod tests {
     #[test]
     fn putting_off_a_waypoint_in_a_risky_neighbourhood_is_credited_only_up_to_the_delay_credit() {
         // The waypoint is 500 m north: flown straight, the ring is met at t = 22 s, where
-        // the limit is 0.05 + 0.45 * 12 / 50 = 0.16 < 0.2 at a far limit of 0.5 (the default
-        // until 2026-12-06; at 1 it is 0.28 there and the ring no wall): unclear. A detour through
-        // (450, 250) meets the ring at t = 48 s, 26 s late; with the default 60 s of
-        // credit the limit there is that of its own arrival, 0.24 > 0.2: clear (a wait for
-        // a sphere to go by). With no credit left (the waypoint put off at every replan
+        // the limit is 0.05 + 0.45 * 12 / 50 = 0.16 < 0.2 at a far limit of 0.5 (the
+        // default until 2026-12-06; at 1 it is 0.28 there and the ring no wall): unclear.
+        // A detour through (450, 250) meets the ring at t = 48 s, 26 s late; with the
+        // default 60 s of credit the limit there is that of its own arrival, 0.24 > 0.2:
+        // clear (a wait for a sphere to go by). With no credit left (the waypoint put off at every replan
         // for a minute), the ring is read as far along the mission as straight: the
         // detour is no clearer than flying straight.
         let half = VerifyParams {
