@@ -1255,6 +1255,16 @@ mod tests {
         }
     }
 
+    /// The defaults with the far limit at 0.5 (the default until 2026-12-06): the rules
+    /// that act only below a far limit of 1 (the delay credit, the read past the horizon)
+    /// are tested there.
+    fn far_limit_half() -> VerifyParams {
+        VerifyParams {
+            far_risk: 0.5,
+            ..VerifyParams::default()
+        }
+    }
+
     fn check(
         risk: &dyn RiskField,
         cylinders: &[Cylinder],
@@ -1878,10 +1888,7 @@ mod tests {
         // 2026-12-06) the limit there is 0.05 + (0.5 - 0.05) * 14 / 50 = 0.18, below 0.2:
         // unclear. Starting at y = -600, it is met at t = 54 s, where the limit is
         // 0.05 + 0.45 * 44 / 50 = 0.45: clear.
-        let half = VerifyParams {
-            far_risk: 0.5,
-            ..VerifyParams::default()
-        };
+        let half = far_limit_half();
         let tail = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
         let near = check_with(&Band, &[], &state(0.0), &tail, &half);
         assert!(!near.is_clear(0.05), "{near:?}");
@@ -1951,8 +1958,7 @@ mod tests {
         // horizon can no longer make a route unclear, only rank it).
         let spent = VerifyParams {
             delay_credit_s: 0.0,
-            far_risk: 0.5,
-            ..VerifyParams::default()
+            ..far_limit_half()
         };
         let blind = VerifyParams {
             read_past_horizon: false,
@@ -2018,10 +2024,7 @@ mod tests {
         // clear (a wait for a sphere to go by). With no credit left (the waypoint put off at every replan
         // for a minute), the ring is read as far along the mission as straight: the
         // detour is no clearer than flying straight.
-        let half = VerifyParams {
-            far_risk: 0.5,
-            ..VerifyParams::default()
-        };
+        let half = far_limit_half();
         let wp = StackItem::mission(0, [0.0, 500.0], 100.0);
         let direct = check_with(&Ring, &[], &state(0.0), &[wp], &half);
         assert!(!direct.is_clear(0.05), "{direct:?}");
