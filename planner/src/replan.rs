@@ -408,16 +408,24 @@ pub fn replan(
         Some((map, obstacles)) => {
             // Only obstacles that miss some of the route's altitudes can be left out of
             // a leg (the others cost a query nothing).
-            view = map.altitude_view(
-                obstacles
-                    .iter()
-                    .map(|o| {
-                        let r = altitude_reach(o, buffer);
-                        (o.id.as_str(), r, r[0] <= hi && r[1] >= lo)
-                    })
-                    .filter(|&(_, r, reaches)| !reaches || r[0] > lo || r[1] < hi)
-                    .map(|(id, r, reaches)| (id, reaches.then_some(r))),
-            );
+            view = map
+                .altitude_view(
+                    obstacles
+                        .iter()
+                        .map(|o| {
+                            let r = altitude_reach(o, buffer);
+                            (o.id.as_str(), r, r[0] <= hi && r[1] >= lo)
+                        })
+                        .filter(|&(_, r, reaches)| !reaches || r[0] > lo || r[1] < hi)
+                        .map(|(id, r, reaches)| (id, reaches.then_some(r))),
+                )
+                // Obstacles faster than the aircraft, within the near window
+                // (VerifyParams::fast_weight; 1, the default, reads every one as it is).
+                .fast_weight(
+                    r.aircraft.speed_mps,
+                    cfg.plan.verify.fast_weight,
+                    cfg.plan.verify.near_s,
+                );
             &view
         }
         None => risk,

@@ -532,3 +532,94 @@ fn the_live_map_puts_a_spheres_edge_within_a_5_m_cells_diagonal_up_to_15_s_ahead
         "10 m cells should miss the edge somewhere"
     );
 }
+
+/// An obstacle of radius 15 m flying east at `speed` m/s, `north_m` north of the leg, weaving
+/// 20 m either side every 12 s, observed at 5 Hz for 10 s, 30 m behind the aircraft at the
+/// end: its cloud spreads across its track, and the leg reads its southern edge.
+fn weaving_flyer(speed: f64, north_m: f64) -> Predictor {
+    let mut p = Predictor::new(PredictorConfig::default());
+    for k in 0..=50 {
+        let t = 0.2 * f64::from(k);
+        p.observe(
+            "5",
+            Observation {
+                t_s: t,
+                p_m: [
+                    speed * (t - 10.0) - 30.0,
+                    north_m + 20.0 * (std::f64::consts::TAU * t / 12.0).sin(),
+                ],
+                alt_m: 100.0,
+                radius_m: 15.0,
+            },
+        );
+    }
+    p
+}
+
+#[test]
+fn an_obstacle_faster_than_the_aircraft_counts_twice_within_the_near_window() {
+    // The stack straight east along the leg, flown as given (strategy none), beside a
+    // weaving flyer at 25 m/s, faster than the 20 m/s aircraft: its near-term risk on the
+    // route is read at twice its probability (at most 1), so a route that meets it at
+    // 0.06-0.1 within 10 s, clear at its own probability, is not clear. The same flyer
+    // with an aircraft whose cruise speed is 30 m/s (its route still timed at the 20 m/s
+    // it reports) is not faster, and counts once; met beyond the near window, it counts
+    // once too.
+    let m = mission();
+    let stack = mission_stack(&m);
+    let plan = |p: &Predictor, weight: u32, cruise: f64| {
+        let mut cfg = config();
+        cfg.plan.verify.fast_weight = weight;
+        let mut r = Replan {
+            strategy: Strategy::None,
+            ..request(&m, &stack, 5)
+        };
+        r.aircraft.speed_mps = cruise;
+        replan(&r, Dynamic::Predictor(p), &cfg, &Termination::none())
+            .expect("plan")
+            .plan
+    };
+    assert_eq!(config().plan.verify.fast_weight, 1, "off by default");
+    let (mut compared, mut flipped) = (0, 0);
+    let mut beyond = 0;
+    for north in (90..=250).step_by(4) {
+        let p = weaving_flyer(25.0, f64::from(north));
+        let once = plan(&p, 1, 20.0);
+        let twice = plan(&p, 2, 20.0);
+        assert_eq!(once.items, stack);
+        let (r1, r2) = (
+            once.verification.near_peak_risk,
+            twice.verification.near_peak_risk,
+        );
+        assert!(
+            (r2 - (2.0 * r1).min(1.0)).abs() < 1e-6,
+            "{north} m north: near-term peak {r1} once, {r2} twice"
+        );
+        // Slower than the aircraft's cruise speed: its own probability.
+        assert_eq!(plan(&p, 2, 30.0).verification, once.verification);
+        if r1 > 0.0 {
+            compared += 1;
+        }
+        // Met only beyond the near window: the same peaks and verdict either way (the
+        // exposure may differ by what is read between the window's last slice and the
+        // next, which reads that slice at the weight).
+        if r1 == 0.0 && once.verification.peak_risk > 0.05 {
+            let (a, b) = (&once.verification, &twice.verification);
+            assert_eq!(
+                (a.peak_risk, a.graded_peak_risk, b.near_peak_risk),
+                (b.peak_risk, b.graded_peak_risk, 0.0),
+                "{north} m north"
+            );
+            assert_eq!(a.is_clear(0.1), b.is_clear(0.1));
+            beyond += 1;
+        }
+        if (0.06..=0.1).contains(&r1) && once.verification.is_clear(0.1) {
+            assert!(!twice.verification.is_clear(0.1), "{north} m north: {r1}");
+            flipped += 1;
+        }
+    }
+    assert!(
+        compared >= 5 && flipped >= 1 && beyond >= 5,
+        "{compared} compared, {flipped} flipped, {beyond} beyond the window"
+    );
+}

@@ -841,3 +841,90 @@ fn between_fine_slices_a_moving_sphere_is_read_where_it_is_not_where_both_slices
         }
     }
 }
+
+#[test]
+fn a_view_reads_an_obstacle_faster_than_the_aircraft_at_its_weight_within_the_window_only() {
+    // A weaving flyer at about 20 m/s and a slow turner (about 2.4 m/s) whose clouds
+    // overlap; the view weights obstacles faster than 10 m/s by 2 for the first 10 s.
+    let mut p = Predictor::new(PredictorConfig::default());
+    observe_for(&mut p, "fast", 14, |t| {
+        [-150.0 + 20.0 * t, 30.0 * (t / 3.0).sin()]
+    });
+    feed(
+        &mut p,
+        "slow",
+        Behaviour::Uniform { w: 0.2 },
+        21,
+        [0.0, 0.0],
+    );
+    let t0 = 14.0;
+    for sparse in [false, true] {
+        let c = cfg().time(0.5, 30.0).sparse_fine(sparse);
+        let full = p.build_risk_map(&c, &[], t0).unwrap();
+        let alone = |id: &str| {
+            let mut m = full.clone();
+            for other in ["fast", "slow"].into_iter().filter(|o| *o != id) {
+                m.remove_obstacle(other);
+            }
+            m
+        };
+        let (fast, slow) = (alone("fast"), alone("slow"));
+        let view = full.altitude_view::<_, &str>([]).fast_weight(10.0, 2, 10.0);
+        let unweighted = full.altitude_view::<_, &str>([]).fast_weight(10.0, 1, 10.0);
+        let (mut doubled, mut capped) = (0, 0);
+        for k in 0..=50 {
+            // Slice times and between them.
+            let t = t0 + f64::from(k) * 0.25;
+            for iy in -25..=25 {
+                for ix in -40..=60 {
+                    let q = [f64::from(ix) * 5.0 + 1.3, f64::from(iy) * 5.0 - 0.7];
+                    let got = view.risk(q, t);
+                    let (pf, ps) = (fast.risk(q, t), slow.risk(q, t));
+                    // Each obstacle's own read combines as independent; within the
+                    // window (slices at most 10 s after slice 0: a read at 10.25 s
+                    // brackets the 10 s slice and the 10.5 s one) the fast one counts
+                    // twice, at most 1.
+                    let want = if t <= t0 + 10.0 {
+                        1.0 - (1.0 - (2.0 * pf).min(1.0)) * (1.0 - ps)
+                    } else {
+                        full.risk(q, t)
+                    };
+                    let between = t > t0 + 10.0 && t < t0 + 10.5;
+                    if !between {
+                        assert!(
+                            (got - want).abs() < 1e-5,
+                            "sparse {sparse}, {q:?} at +{} s: {got} against {want} (fast {pf}, slow {ps})",
+                            t - t0
+                        );
+                    }
+                    assert!(got >= full.risk(q, t) - 1e-6);
+                    assert!((unweighted.risk(q, t) - full.risk(q, t)).abs() < 1e-6);
+                    if t <= t0 + 10.0 && pf > 0.01 && pf < 0.5 {
+                        doubled += 1;
+                    }
+                    if t <= t0 + 10.0 && pf >= 0.5 {
+                        capped += 1;
+                    }
+                }
+            }
+        }
+        assert!(
+            doubled > 500 && capped > 50,
+            "{doubled} doubled, {capped} capped"
+        );
+        // The segment bound stays a bound of the weighted reads.
+        for (a, b, ta, tb) in [
+            ([-120.0, -40.0], [150.0, 60.0], 2.0, 9.0),
+            ([0.0, -100.0], [100.0, 100.0], 6.0, 14.0),
+            ([-50.0, 0.0], [250.0, 10.0], 11.0, 20.0),
+        ] {
+            let bound = view.segment_risk_bound(a, b, t0 + ta, t0 + tb);
+            for i in 0..=60 {
+                let f = f64::from(i) / 60.0;
+                let q = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
+                let r = view.risk(q, t0 + ta + (tb - ta) * f);
+                assert!(r <= bound + 1e-9, "{r} over the bound {bound}");
+            }
+        }
+    }
+}

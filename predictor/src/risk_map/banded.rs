@@ -34,6 +34,11 @@ pub struct AltitudeView<'a> {
     /// with a mask keeps those whose bits the mask misses, without walking the map's tree
     /// or `reach` for each obstacle at each point.
     order: Vec<(&'a Contribution, u64)>,
+    /// [`AltitudeView::fast_weight`]: the weight, and the last slice time (on the map's
+    /// clock) it applies to; `None`: every obstacle at weight 1.
+    fast: Option<(u32, f64)>,
+    /// Per entry of `order`, whether the obstacle is read at the `fast` weight.
+    is_fast: Vec<bool>,
 }
 
 impl RiskMap {
@@ -57,7 +62,7 @@ impl RiskMap {
             })
             .take(MAX_REACH)
             .collect::<Vec<_>>();
-        let order = self
+        let order: Vec<(&Contribution, u64)> = self
             .contrib
             .values()
             .filter(|c| !c.filtered)
@@ -70,10 +75,13 @@ impl RiskMap {
                 (c, bits)
             })
             .collect();
+        let is_fast = vec![false; order.len()];
         AltitudeView {
             map: self,
             reach,
             order,
+            fast: None,
+            is_fast,
         }
     }
 
@@ -109,16 +117,20 @@ impl RiskMap {
     }
 
     /// Risk of slice `k` at `p_m` from the contributions `kept` (unfiltered ones, in the
-    /// map's order).
+    /// map's order), each with the weight its counts are read at in the slices up to
+    /// `weighted_to_s` ([`AltitudeView::fast_weight`]; 1 elsewhere).
     pub(super) fn slice_risk_of<'c>(
         &self,
         p_m: [f64; 2],
         k: usize,
-        kept: impl Iterator<Item = &'c Contribution>,
+        kept: impl Iterator<Item = (&'c Contribution, u32)>,
+        weighted_to_s: f64,
     ) -> f64 {
         let cell = self.cell_of(p_m, k);
+        let weighted = self.slice_time(k) <= weighted_to_s;
         let mut q = 1.0f64;
-        for c in kept {
+        for (c, weight) in kept {
+            let weight = if weighted { weight } else { 1 };
             if !self.touches(c, p_m, k) {
                 continue;
             }
@@ -128,7 +140,7 @@ impl RiskMap {
             if let Some(cell) = cell {
                 let n = Self::count_at(c, k, cell);
                 if n > 0 {
-                    q *= f64::from(self.omp_table[usize::from(n)]);
+                    q *= f64::from(self.omp_table[self.weighted(n, weight)]);
                 }
             }
         }
@@ -148,10 +160,12 @@ impl RiskMap {
         p_m: [f64; 2],
         k: usize,
         w: f64,
-        kept: impl Iterator<Item = &'c Contribution>,
+        kept: impl Iterator<Item = (&'c Contribution, u32)>,
+        weighted_to_s: f64,
     ) -> f64 {
+        let weighted = [k, k + 1].map(|kk| self.slice_time(kk) <= weighted_to_s);
         let mut q = 1.0f64;
-        for c in kept {
+        for (c, weight) in kept {
             if c.disc.is_some() {
                 if self.touches(c, p_m, k) || self.touches(c, p_m, k + 1) {
                     return 1.0;
@@ -159,20 +173,28 @@ impl RiskMap {
                 continue;
             }
             let d = c.mean_move(k);
-            let mut n = 0u16;
-            for (kk, s) in [(k, -w), (k + 1, 1.0 - w)] {
+            let mut n = 0usize;
+            for ((kk, s), weighted) in [(k, -w), (k + 1, 1.0 - w)].into_iter().zip(weighted) {
                 let at = [p_m[0] + s * d[0], p_m[1] + s * d[1]];
                 if self.touches(c, at, kk)
                     && let Some(cell) = self.cell_of(at, kk)
                 {
-                    n = n.max(Self::count_at(c, kk, cell));
+                    let weight = if weighted { weight } else { 1 };
+                    n = n.max(self.weighted(Self::count_at(c, kk, cell), weight));
                 }
             }
             if n > 0 {
-                q *= f64::from(self.omp_table[usize::from(n)]);
+                q *= f64::from(self.omp_table[n]);
             }
         }
         1.0 - q
+    }
+
+    /// Count `n` of an obstacle read at `weight` ([`AltitudeView::fast_weight`]), as an
+    /// index of the one-minus-p table: `weight * n`, at most every particle.
+    #[inline]
+    fn weighted(&self, n: u16, weight: u32) -> usize {
+        (u32::from(n) * weight).min(self.cfg.particles as u32) as usize
     }
 
     /// The cell of slice `k` holding `p_m` (`None` outside the grid).
@@ -195,7 +217,8 @@ impl RiskMap {
         b_m: [f64; 2],
         t0_s: f64,
         t1_s: f64,
-        kept: impl Iterator<Item = &'c Contribution>,
+        kept: impl Iterator<Item = (&'c Contribution, u32)>,
+        weighted_to_s: f64,
     ) -> f64 {
         let (ka, kb) = (
             self.bracket(t0_s.min(t1_s)).0,
@@ -209,7 +232,7 @@ impl RiskMap {
             a_m[1].max(b_m[1]),
         ];
         let mut keep_p = 1.0f64;
-        for c in kept {
+        for (c, weight) in kept {
             if let Some(d) = c.disc {
                 let until = self.disc_until_s();
                 if self.slice_time(k0) > until {
@@ -223,10 +246,19 @@ impl RiskMap {
                 continue;
             }
             let meets = |bb: [f64; 4]| meets(bb, sb);
-            let mut peak: f32 = 0.0;
+            // Slice k's peak at the weight it is read at.
+            let peak_at = |k: usize| {
+                let w = if self.slice_time(k) <= weighted_to_s {
+                    weight
+                } else {
+                    1
+                };
+                (f64::from(w) * f64::from(c.max_p[k])).min(1.0)
+            };
+            let mut peak: f64 = 0.0;
             for k in k0..=k1 {
                 if meets(c.bbox_m[k]) {
-                    peak = peak.max(c.max_p[k]);
+                    peak = peak.max(peak_at(k));
                 }
                 // A read between two sparse slices looks at each where the cloud was,
                 // moved by the mean's move: within each box swept along that move.
@@ -234,11 +266,11 @@ impl RiskMap {
                     let d = c.mean_move(k);
                     if meets(swept(c.bbox_m[k], d)) || meets(swept(c.bbox_m[k + 1], [-d[0], -d[1]]))
                     {
-                        peak = peak.max(c.max_p[k]).max(c.max_p[k + 1]);
+                        peak = peak.max(peak_at(k)).max(peak_at(k + 1));
                     }
                 }
             }
-            keep_p *= 1.0 - f64::from(peak);
+            keep_p *= 1.0 - peak;
         }
         (1.0 - keep_p).clamp(0.0, 1.0)
     }
@@ -276,6 +308,35 @@ fn misses(reach: Option<[f64; 2]>, band_m: Option<[f64; 2]>) -> bool {
 }
 
 impl AltitudeView<'_> {
+    /// Reads every obstacle whose speed (its motion model's, when it was put in the map)
+    /// is above `above_mps` at `weight` times its probability, at most 1, in the slices
+    /// at most `within_s` after the map's slice 0; other obstacles, and every obstacle in
+    /// later slices, at their own. With `above_mps` the aircraft's speed, `weight` 2 and `within_s` the
+    /// planner's near window, an obstacle the aircraft cannot outrun is held to half the
+    /// near limit (`planner::VerifyParams::fast_weight`). A weight of 1 (or 0) changes
+    /// nothing.
+    #[must_use]
+    pub fn fast_weight(mut self, above_mps: f64, weight: u32, within_s: f64) -> Self {
+        self.is_fast = self
+            .order
+            .iter()
+            .map(|(c, _)| c.disc.is_none() && c.speed_mps > above_mps)
+            .collect();
+        self.fast = (weight > 1 && self.is_fast.iter().any(|&f| f))
+            .then_some((weight, self.map.t0_s() + within_s + 1e-9));
+        self
+    }
+
+    /// The weight of fast obstacles, and the last slice time it applies to, in a read
+    /// reaching back to `t_s` (weight 1: none is weighted in any slice the read uses).
+    #[inline]
+    fn weight_at(&self, t_s: f64) -> (u32, f64) {
+        match self.fast {
+            Some((w, until)) if self.map.slice_time(self.map.bracket(t_s).0) <= until => (w, until),
+            _ => (1, f64::NEG_INFINITY),
+        }
+    }
+
     /// The entries of `reach` left out of a read for `band_m` (`None`: a read for every
     /// altitude), bit `i` for entry `i`.
     fn mask(&self, band_m: Option<[f64; 2]>) -> u64 {
@@ -286,47 +347,56 @@ impl AltitudeView<'_> {
             .fold(0, |m, (i, _)| m | (1 << i))
     }
 
-    /// The contributions a read with `mask` keeps, in the map's order.
-    fn kept(&self, mask: u64) -> impl Iterator<Item = &Contribution> {
+    /// The contributions a read with `mask` keeps, in the map's order, each with its
+    /// weight (`weight` for a fast obstacle, else 1).
+    fn kept(&self, mask: u64, weight: u32) -> impl Iterator<Item = (&Contribution, u32)> {
         self.order
             .iter()
-            .filter(move |&&(_, bits)| bits & mask == 0)
-            .map(|&(c, _)| c)
+            .zip(&self.is_fast)
+            .filter(move |&(&(_, bits), _)| bits & mask == 0)
+            .map(move |(&(c, _), &fast)| (c, if fast { weight } else { 1 }))
     }
 
-    /// Risk of slice `k` at `p_m` without the entries of `mask`.
-    fn slice_risk_masked(&self, p_m: [f64; 2], k: usize, mask: u64) -> f64 {
+    /// Risk of slice `k` at `p_m` without the entries of `mask`, fast obstacles at
+    /// `weight`.
+    fn slice_risk_masked(&self, p_m: [f64; 2], k: usize, mask: u64, weight: (u32, f64)) -> f64 {
         let m = self.map;
-        if Bits(mask).any(|i| m.touches(self.reach[i].0, p_m, k)) {
-            m.slice_risk_of(p_m, k, self.kept(mask))
+        let (weight, to_s) = weight;
+        if (weight > 1 && m.slice_time(k) <= to_s)
+            || Bits(mask).any(|i| m.touches(self.reach[i].0, p_m, k))
+        {
+            m.slice_risk_of(p_m, k, self.kept(mask, weight), to_s)
         } else {
             m.slice_risk(p_m, k)
         }
     }
 
     /// The worse of the two slices bracketing `t_s`, as [`RiskMap`]'s `risk`, without the
-    /// entries of `mask` (none: the map's own read, one load per slice).
+    /// entries of `mask` (none, and no weight: the map's own read, one load per slice).
     fn read(&self, p_m: [f64; 2], t_s: f64, mask: u64) -> f64 {
-        if mask == 0 {
+        let weight = self.weight_at(t_s);
+        if mask == 0 && weight.0 == 1 {
             return self.map.risk(p_m, t_s);
         }
         if let Some((k, w)) = self.map.sparse_between(t_s) {
             return self
                 .map
-                .between_risk_of(p_m, k, w, self.kept(mask))
+                .between_risk_of(p_m, k, w, self.kept(mask, weight.0), weight.1)
                 .clamp(0.0, 1.0);
         }
         self.map
-            .worse_of_bracket(t_s, |k| self.slice_risk_masked(p_m, k, mask))
+            .worse_of_bracket(t_s, |k| self.slice_risk_masked(p_m, k, mask, weight))
     }
 
-    /// The segment bound without the entries of `mask`.
+    /// The segment bound without the entries of `mask` (fast obstacles at their weight in
+    /// the slices of their window: still a bound of `read`).
     fn bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64, mask: u64) -> f64 {
-        if mask == 0 {
+        let weight = self.weight_at(t0_s.min(t1_s));
+        if mask == 0 && weight.0 == 1 {
             return self.map.segment_risk_bound(a_m, b_m, t0_s, t1_s);
         }
         self.map
-            .segment_bound_of(a_m, b_m, t0_s, t1_s, self.kept(mask))
+            .segment_bound_of(a_m, b_m, t0_s, t1_s, self.kept(mask, weight.0), weight.1)
     }
 }
 

@@ -127,6 +127,9 @@ struct Contribution {
     /// Per slice the particles' mean position, metres: a read between two sparse slices
     /// follows the cloud by the mean's move between them ([`RiskMapConfig::sparse_fine`]).
     centre_m: Vec<[f64; 2]>,
+    /// The speed of the motion model it was built from, m/s
+    /// ([`AltitudeView::fast_weight`]).
+    speed_mps: f64,
 }
 
 #[derive(Debug, Clone, Copy)]
@@ -704,6 +707,7 @@ impl RiskMap {
         c.bbox_m.clear();
         c.max_p.clear();
         c.centre_m.clear();
+        c.speed_mps = o.model.speed_mps;
         let r_m = o.radius_m + self.cfg.buffer_m;
         let t_end = self.t0_s + self.horizon_s();
         if !self.path.is_empty() {

@@ -23,6 +23,16 @@ impl RiskMap {
         0.0
     }
 
+    /// Every obstacle's part but the filtered ones, in the map's order, each read at its
+    /// own weight (1).
+    #[inline]
+    pub(super) fn unfiltered(&self) -> impl Iterator<Item = (&super::Contribution, u32)> {
+        self.contrib
+            .values()
+            .filter(|c| !c.filtered)
+            .map(|c| (c, 1))
+    }
+
     /// The slice nearest `t_s`, for rendering.
     pub fn slice(&self, t_s: f64) -> SliceView {
         let k = self.slice_index(t_s);
@@ -82,7 +92,7 @@ impl RiskMap {
     pub(super) fn slice_risk(&self, p_m: [f64; 2], k: usize) -> f64 {
         let g = &self.geo[k];
         if g.sparse {
-            return self.slice_risk_of(p_m, k, self.contrib.values().filter(|c| !c.filtered));
+            return self.slice_risk_of(p_m, k, self.unfiltered(), f64::NEG_INFINITY);
         }
         let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
         let fy = (p_m[1] - self.cfg.min_m[1]) * g.inv_cell;
@@ -155,8 +165,9 @@ impl RiskField for RiskMap {
     #[inline]
     fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
         if let Some((k, w)) = self.sparse_between(t_s) {
-            let unfiltered = self.contrib.values().filter(|c| !c.filtered);
-            return self.between_risk_of(p_m, k, w, unfiltered).clamp(0.0, 1.0);
+            return self
+                .between_risk_of(p_m, k, w, self.unfiltered(), f64::NEG_INFINITY)
+                .clamp(0.0, 1.0);
         }
         self.worse_of_bracket(t_s, |k| self.slice_risk(p_m, k))
     }
@@ -166,7 +177,6 @@ impl RiskField for RiskMap {
     /// segment comes within a NoFly disc (as it is at the later of the segment's slices,
     /// or at the end of [`crate::RiskMapConfig::nofly_horizon_s`]).
     fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
-        let unfiltered = self.contrib.values().filter(|c| !c.filtered);
-        self.segment_bound_of(a_m, b_m, t0_s, t1_s, unfiltered)
+        self.segment_bound_of(a_m, b_m, t0_s, t1_s, self.unfiltered(), f64::NEG_INFINITY)
     }
 }
