@@ -417,14 +417,20 @@ fn a_hold_circle_is_flown_for_an_overdue_waypoint_for_two_minutes_and_only_then(
 /// A sphere of 15 m flying straight east at 18 m/s along y = 0 from x = 0, observed at
 /// 5 Hz for 60 s.
 fn straight_track() -> Predictor {
+    observed_at_5hz("3", 60.0, |t| [18.0 * t, 0.0])
+}
+
+/// A predictor that has observed obstacle `id`, a sphere of 15 m at 100 m, at 5 Hz from
+/// t = 0 to `secs` along `path`.
+fn observed_at_5hz(id: &str, secs: f64, path: impl Fn(f64) -> [f64; 2]) -> Predictor {
     let mut p = Predictor::new(PredictorConfig::default());
-    for k in 0..=300 {
+    for k in 0..=(secs * 5.0).round() as i32 {
         let t = 0.2 * f64::from(k);
         p.observe(
-            "3",
+            id,
             Observation {
                 t_s: t,
-                p_m: [18.0 * t, 0.0],
+                p_m: path(t),
                 alt_m: 100.0,
                 radius_m: 15.0,
             },
@@ -537,23 +543,12 @@ fn the_live_map_puts_a_spheres_edge_within_a_5_m_cells_diagonal_up_to_15_s_ahead
 /// 20 m either side every 12 s, observed at 5 Hz for 10 s, 30 m behind the aircraft at the
 /// end: its cloud spreads across its track, and the leg reads its southern edge.
 fn weaving_flyer(speed: f64, north_m: f64) -> Predictor {
-    let mut p = Predictor::new(PredictorConfig::default());
-    for k in 0..=50 {
-        let t = 0.2 * f64::from(k);
-        p.observe(
-            "5",
-            Observation {
-                t_s: t,
-                p_m: [
-                    speed * (t - 10.0) - 30.0,
-                    north_m + 20.0 * (std::f64::consts::TAU * t / 12.0).sin(),
-                ],
-                alt_m: 100.0,
-                radius_m: 15.0,
-            },
-        );
-    }
-    p
+    observed_at_5hz("5", 10.0, |t| {
+        [
+            speed * (t - 10.0) - 30.0,
+            north_m + 20.0 * (std::f64::consts::TAU * t / 12.0).sin(),
+        ]
+    })
 }
 
 #[test]
