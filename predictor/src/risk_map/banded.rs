@@ -311,10 +311,11 @@ impl AltitudeView<'_> {
     /// Reads every obstacle whose speed (its motion model's, when it was put in the map)
     /// is above `above_mps` at `weight` times its probability, at most 1, in the slices
     /// at most `within_s` after the map's slice 0; other obstacles, and every obstacle in
-    /// later slices, at their own. With `above_mps` the aircraft's speed, `weight` 2 and `within_s` the
-    /// planner's near window, an obstacle the aircraft cannot outrun is held to half the
-    /// near limit (`planner::VerifyParams::fast_weight`). A weight of 1 (or 0) changes
-    /// nothing.
+    /// later slices, at their own. With `above_mps` the aircraft's speed, `weight` 2 and
+    /// `within_s` the planner's near window, an obstacle the aircraft cannot outrun is held
+    /// to half the near limit (`planner::VerifyParams::fast_weight`). A weight of 1 (or 0)
+    /// changes nothing. A read between the window's last slice and the next reads the
+    /// former at the weight and the latter at 1 (the weight goes by slice).
     #[must_use]
     pub fn fast_weight(mut self, above_mps: f64, weight: u32, within_s: f64) -> Self {
         self.is_fast = self
@@ -327,8 +328,9 @@ impl AltitudeView<'_> {
         self
     }
 
-    /// The weight of fast obstacles, and the last slice time it applies to, in a read
-    /// reaching back to `t_s` (weight 1: none is weighted in any slice the read uses).
+    /// The weight of fast obstacles in a read at `t_s` (or a segment from it), with the
+    /// last slice time it applies to; `(1, -inf)` when the first slice the read uses lies
+    /// beyond the window (or nothing is weighted).
     #[inline]
     fn weight_at(&self, t_s: f64) -> (u32, f64) {
         match self.fast {
