@@ -318,12 +318,18 @@ impl AltitudeView<'_> {
     /// former at the weight and the latter at 1 (the weight goes by slice).
     #[must_use]
     pub fn fast_weight(mut self, above_mps: f64, weight: u32, within_s: f64) -> Self {
+        if weight <= 1 {
+            return self;
+        }
         self.is_fast = self
             .order
             .iter()
             .map(|(c, _)| c.disc.is_none() && c.speed_mps > above_mps)
             .collect();
-        self.fast = (weight > 1 && self.is_fast.iter().any(|&f| f))
+        self.fast = self
+            .is_fast
+            .iter()
+            .any(|&f| f)
             .then_some((weight, self.map.t0_s() + within_s + 1e-9));
         self
     }
