@@ -304,10 +304,10 @@ impl TargetClock {
         }
     }
 
-    /// The mission waypoint ahead that `view`'s aircraft captured on its way to an avoid
-    /// item before it ([`planner::captured_on_the_way`]): the next fixed item, when it was
-    /// the target at the last call, and the track since it became the target. Call before
-    /// [`TargetClock::pending_s`].
+    /// The mission waypoint ahead that `view`'s aircraft captured on its way, flying toward
+    /// it or toward an avoid item before it ([`planner::captured_on_the_way`]): the next
+    /// fixed item, when it was the target at the last call, and the track since it became
+    /// the target. Call before [`TargetClock::pending_s`].
     pub fn captured(&self, view: &View<'_>) -> Option<planner::Captured> {
         let (bits, since) = self.target?;
         let (items, cur) = (&view.stack.items, view.stack.current);
