@@ -432,7 +432,7 @@ fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
         w.push(PlanWarning {
             code: "waypoint_captured_on_the_way".into(),
             message: format!(
-                "mission waypoint {} (stack item {}) was passed {:.1} m away on the way to an avoid item before it, within the judges' 100 ft (30.48 m) less a margin: the judges count it, so the plan skips it and the avoid items before it (\"skip_captured\": false turns this off)",
+                "mission waypoint {} (stack item {}) was passed {:.1} m away on the way, within the judges' 100 ft (30.48 m) less a margin, before the autopilot switched past it: the judges count it, so the plan skips it and any avoid items before it (\"skip_captured\": false turns this off)",
                 c.mission_index, c.stack_index, c.closest_m
             ),
         });

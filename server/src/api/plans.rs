@@ -285,12 +285,13 @@ pub struct PlanBody {
     /// rest (a waypoint is passed three times at most) and warns `waypoint_revisited`.
     /// `false`: never.
     pub revisit_missed: Option<bool>,
-    /// Skip a mission waypoint captured on the way (default true): when the next mission
-    /// waypoint lies behind avoid items and the aircraft's telemetry since the base
-    /// revision pursued it came within 25 m of it (three dimensions; the judges' 100 ft
-    /// less a margin for the telemetry's error) while the autopilot flew toward an avoid
-    /// item, the plan drops the avoid items before it and the waypoint, goes on to the
-    /// next item, and warns `waypoint_captured_on_the_way`. `false`: never.
+    /// Skip a mission waypoint captured on the way (default true): when the aircraft's
+    /// telemetry since the base revision pursued the next mission waypoint came within 25 m
+    /// of it (three dimensions; the judges' 100 ft less a margin for the telemetry's error)
+    /// while the autopilot flew toward it (short of its acceptance radius and finish line)
+    /// or toward an avoid item before it, the plan drops the avoid items before it and the
+    /// waypoint, goes on to the next item, and warns `waypoint_captured_on_the_way`. The
+    /// last item of a stack is never skipped. `false`: never.
     pub skip_captured: Option<bool>,
 }
 
@@ -471,19 +472,26 @@ async fn create_plan(
     };
     // The waypoint the base revision pursued (none before the first plan: nothing says
     // when the mission's own waypoints became the target), and what the track since says
-    // of it: passed too wide just now (flown again), or captured on the way to an avoid
-    // item before it, still the next fixed item (skipped: the judges count it, the
-    // autopilot switches only at the item it flies toward). A waypoint passed that only the
-    // flight ahead would capture is watched: the base revision keeps it and this plan
+    // of it: passed too wide just now (flown again), or captured on the way, still the next
+    // fixed item (skipped: the judges count it within 100 ft, the autopilot switches only
+    // within its acceptance radius or past the finish line). A waypoint passed that only
+    // the flight ahead would capture is watched: the base revision keeps it and this plan
     // judges it again (planner::judge_pass). The track is read only when the autopilot has
     // just gone past that waypoint, while it is watched, or while an avoid item before it
-    // is the target.
+    // is the target; while it is the item flown toward, the newest telemetry in hand
+    // serves.
     let (mut revisit, mut captured, mut watch) = (None, None, None);
     let revisit_on = body.revisit_missed.unwrap_or(true);
     let base_watch = base_watch.filter(|w| revisit_on && current_index == w.stack_index + 1);
     let pursued = base_target.filter(|&(k, _)| revisit_on && current_index == k + 1);
     let behind = base_target.filter(|&(k, _)| {
         body.skip_captured.unwrap_or(true) && next == Some(k) && k > current_index
+    });
+    let toward = base_target.filter(|&(k, _)| {
+        body.skip_captured.unwrap_or(true)
+            && next == Some(k)
+            && k == current_index
+            && start.from_telemetry
     });
     let judged = base_watch.map(|w| w.since_s).or(pursued.map(|(_, s)| s));
     let since = judged
@@ -516,6 +524,25 @@ async fn create_plan(
         if let Some(pursued) = behind.filter(|_| revisit.is_none()) {
             captured = planner::captured_on_the_way(&base, current_index, pursued, &track);
         }
+    }
+    // The waypoint flown toward: only the last few seconds of the track count
+    // (planner::revisit::FLOWN_TOWARD_S), which the newest telemetry in hand holds unless
+    // it comes faster than 6 Hz.
+    if let Some(pursued) = toward.filter(|_| revisit.is_none()) {
+        let newest = telemetry.last().map_or(pursued.1, |r| r.t_s);
+        let from = pursued.1.max(newest - planner::revisit::FLOWN_TOWARD_S);
+        let read;
+        let rows = if telemetry.first().is_some_and(|r| r.t_s <= from) {
+            &telemetry[..]
+        } else {
+            read = state
+                .store
+                .list_telemetry_since(&id, from - planner::revisit::TRACK_GAP_S, REVISIT_SAMPLES)
+                .await?;
+            &read[..]
+        };
+        let (base, track) = enu_track(&mission, &stack, rows);
+        captured = planner::captured_on_the_way(&base, current_index, pursued, &track);
     }
     let max_age = body.max_map_age_ms.map(std::time::Duration::from_millis);
     let (snap, lag) = state.live.plan_snapshot(&state, &mission, max_age).await?;

@@ -22,6 +22,7 @@ both_stores!(
     a_waypoint_passed_wider_than_100_ft_is_flown_again_at_most_twice,
     a_pass_the_turn_ahead_may_capture_is_judged_again_at_the_next_plan,
     a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped,
+    the_waypoint_flown_toward_captured_short_of_it_is_skipped,
 );
 
 /// Time of obstacle "0"'s first observation, Unix seconds.
@@ -1269,4 +1270,64 @@ async fn a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped(app: App) {
     let off = plan(&app, &id, body).await;
     assert_eq!(warning(&off, "waypoint_captured_on_the_way"), None);
     assert!(has_waypoint_1(&off), "{off}");
+}
+
+/// The autopilot flies toward waypoint 1 (no obstacle: the plan is the mission's own
+/// stack) and the aircraft is 20 m short of it, outside the autopilot's 10 m acceptance
+/// radius and short of the finish line, so the autopilot has not switched: the judges
+/// count it (within 100 ft less the margin), so the next plan drops it, flies toward
+/// waypoint 2 (warning `waypoint_captured_on_the_way` with the distance) and replays
+/// identically. 40 m short, or with `"skip_captured": false`, waypoint 1 stays the item
+/// flown toward.
+async fn the_waypoint_flown_toward_captured_short_of_it_is_skipped(app: App) {
+    // From 300 m south of waypoint 1 to `short_m` short of it, at 20 m/s.
+    let approach = |short_m: f64| {
+        let app = &app;
+        async move {
+            let (id, wp) = webster_waypoint_1(app).await;
+            let last = ((300.0 - short_m) / 4.0).round() as u32;
+            fly_past(app, &id, &wp, 0.0, T0, 0..=0).await;
+            let p1 = plan(app, &id, json!({"seed": 1, "current_index": 1})).await;
+            assert_eq!(p1["waypoints"][1]["mission_index"], 1, "{p1}");
+            assert_eq!(p1["waypoints"][1]["kind"], "mission", "{p1}");
+            fly_past(app, &id, &wp, 0.0, T0, 1..=last).await;
+            (id, p1)
+        }
+    };
+    let (id, p1) = approach(20.0).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": 1});
+    let p2 = plan(&app, &id, body).await;
+    let passed = passed_at(&p2, "waypoint_captured_on_the_way");
+    assert!((passed - 20.0).abs() < 0.5, "{passed}");
+    assert_eq!(p2["current_index"], 1);
+    let k = next_mission_item(&p2, 1);
+    assert_eq!(p2["waypoints"][k]["mission_index"], 2, "{p2}");
+    assert_eq!(
+        p2["waypoints"][0], p1["waypoints"][0],
+        "the item before stays"
+    );
+    assert_eq!(p2["diff"]["first_changed"], 1, "{}", p2["diff"]);
+    assert_replays_identically(&app, &id, &p2).await;
+
+    // 40 m short: not yet captured, waypoint 1 is still flown toward.
+    let (id, _) = approach(40.0).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": 1});
+    let far = plan(&app, &id, body).await;
+    assert_eq!(warning(&far, "waypoint_captured_on_the_way"), None);
+    assert_eq!(
+        far["waypoints"][next_mission_item(&far, 1)]["mission_index"],
+        1,
+        "{far}"
+    );
+    // 20 m short, but the client turned the skip off.
+    let (id, _) = approach(20.0).await;
+    let body = json!({"seed": 2, "base_revision": 1, "current_index": 1,
+                      "skip_captured": false});
+    let off = plan(&app, &id, body).await;
+    assert_eq!(warning(&off, "waypoint_captured_on_the_way"), None);
+    assert_eq!(
+        off["waypoints"][next_mission_item(&off, 1)]["mission_index"],
+        1,
+        "{off}"
+    );
 }
