@@ -484,15 +484,11 @@ async fn create_plan(
     let revisit_on = body.revisit_missed.unwrap_or(true);
     let base_watch = base_watch.filter(|w| revisit_on && current_index == w.stack_index + 1);
     let pursued = base_target.filter(|&(k, _)| revisit_on && current_index == k + 1);
-    let behind = base_target.filter(|&(k, _)| {
-        body.skip_captured.unwrap_or(true) && next == Some(k) && k > current_index
-    });
-    let toward = base_target.filter(|&(k, _)| {
-        body.skip_captured.unwrap_or(true)
-            && next == Some(k)
-            && k == current_index
-            && start.from_telemetry
-    });
+    // Still the next fixed item, and the client lets a captured one be skipped.
+    let skippable =
+        base_target.filter(|&(k, _)| body.skip_captured != Some(false) && next == Some(k));
+    let behind = skippable.filter(|&(k, _)| k > current_index);
+    let toward = skippable.filter(|&(k, _)| k == current_index && start.from_telemetry);
     let judged = base_watch.map(|w| w.since_s).or(pursued.map(|(_, s)| s));
     let since = judged
         .into_iter()
