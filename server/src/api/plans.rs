@@ -744,13 +744,46 @@ fn stored_revision(row: &PlanRow) -> Result<StoredRevision, ApiError> {
     let out = stored_plan_out(row)?;
     let stack: Vec<GeoItem> = out.waypoints.iter().map(GeoItem::from).collect();
     let inputs = stored_inputs(row)?;
-    let pursuit = next_fixed(&stack, 0, out.current_index).zip(inputs.target_since_s);
+    // The clock it kept is that of its base's next fixed item. A plan that skipped a
+    // waypoint captured on the way, or flew a missed one again, aims at another item,
+    // which has been the target since that plan, as in the simulator
+    // (sim::strategy::TargetClock::aim). Carried over, the next waypoint counted the
+    // skipped one's time as its own and went overdue early.
+    let pursuit = next_fixed(&stack, 0, out.current_index).and_then(|k| {
+        if same_target(&inputs, &stack[k]) {
+            inputs.target_since_s.map(|since| (k, since))
+        } else {
+            Some((k, inputs.start.at.t_s))
+        }
+    });
     Ok(StoredRevision {
         stack,
         current_index: out.current_index,
         pursuit,
         inputs,
     })
+}
+
+/// Whether `item`, a plan's next fixed item, is the next fixed item of the stack the plan
+/// was asked for (`inputs`): the same mission waypoint (by its index; a missed one flown
+/// again is an earlier index), or for an item of no mission index the same place.
+fn same_target(inputs: &PlanInputs, item: &GeoItem) -> bool {
+    if inputs.stack.is_empty() {
+        return item.kind == planner::ItemKind::Mission
+            && item.mission_index == Some(inputs.current_index);
+    }
+    let Some(before) = next_fixed(&inputs.stack, 0, inputs.current_index) else {
+        return false;
+    };
+    let b = &inputs.stack[before];
+    // A millionth of a degree is about 0.1 m: a place read back through the store.
+    let near = |x: f64, y: f64| (x - y).abs() < 1e-6;
+    b.kind == item.kind
+        && b.mission_index == item.mission_index
+        && (item.mission_index.is_some()
+            || (near(b.at.lat, item.at.lat)
+                && near(b.at.lon, item.at.lon)
+                && (b.at.alt_msl_m - item.at.alt_msl_m).abs() < 0.1))
 }
 
 /// Index of the first fixed item (not an avoid item) at or after `current_index` in

@@ -1277,8 +1277,9 @@ async fn a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped(app: App) {
 /// radius and short of the finish line, so the autopilot has not switched: the judges
 /// count it (within 100 ft less the margin), so the next plan drops it, flies toward
 /// waypoint 2 (warning `waypoint_captured_on_the_way` with the distance) and replays
-/// identically. 40 m short, or with `"skip_captured": false`, waypoint 1 stays the item
-/// flown toward.
+/// identically; waypoint 2's clock (`target_pending_s`) starts at that plan, not with
+/// waypoint 1's. 40 m short, or with `"skip_captured": false`, waypoint 1 stays the
+/// item flown toward.
 async fn the_waypoint_flown_toward_captured_short_of_it_is_skipped(app: App) {
     // From 300 m south of waypoint 1 to `short_m` short of it, at 20 m/s.
     let approach = |short_m: f64| {
@@ -1291,10 +1292,10 @@ async fn the_waypoint_flown_toward_captured_short_of_it_is_skipped(app: App) {
             assert_eq!(p1["waypoints"][1]["mission_index"], 1, "{p1}");
             assert_eq!(p1["waypoints"][1]["kind"], "mission", "{p1}");
             fly_past(app, &id, &wp, 0.0, T0, 1..=last).await;
-            (id, p1)
+            (id, p1, wp)
         }
     };
-    let (id, p1) = approach(20.0).await;
+    let (id, p1, wp) = approach(20.0).await;
     let body = json!({"seed": 2, "base_revision": 1, "current_index": 1});
     let p2 = plan(&app, &id, body).await;
     let passed = passed_at(&p2, "waypoint_captured_on_the_way");
@@ -1308,9 +1309,20 @@ async fn the_waypoint_flown_toward_captured_short_of_it_is_skipped(app: App) {
     );
     assert_eq!(p2["diff"]["first_changed"], 1, "{}", p2["diff"]);
     assert_replays_identically(&app, &id, &p2).await;
+    // Waypoint 2 has been the target since p2 (14 s after p1), not since p1, which began
+    // waypoint 1's clock.
+    let pending = |p: &Value| p["target_pending_s"].as_f64().unwrap();
+    fly_past(&app, &id, &wp, 0.0, T0, 71..=75).await;
+    let body = json!({"seed": 3, "base_revision": 2, "current_index": 1});
+    let p3 = plan(&app, &id, body).await;
+    assert!((pending(&p3) - 1.0).abs() < 1e-6, "{p3}");
+    fly_past(&app, &id, &wp, 0.0, T0, 76..=80).await;
+    let body = json!({"seed": 4, "base_revision": 3, "current_index": 1});
+    let p4 = plan(&app, &id, body).await;
+    assert!((pending(&p4) - 2.0).abs() < 1e-6, "{p4}");
 
     // 40 m short: not yet captured, waypoint 1 is still flown toward.
-    let (id, _) = approach(40.0).await;
+    let (id, _, _) = approach(40.0).await;
     let body = json!({"seed": 2, "base_revision": 1, "current_index": 1});
     let far = plan(&app, &id, body).await;
     assert_eq!(warning(&far, "waypoint_captured_on_the_way"), None);
@@ -1320,7 +1332,7 @@ async fn the_waypoint_flown_toward_captured_short_of_it_is_skipped(app: App) {
         "{far}"
     );
     // 20 m short, but the client turned the skip off.
-    let (id, _) = approach(20.0).await;
+    let (id, _, _) = approach(20.0).await;
     let body = json!({"seed": 2, "base_revision": 1, "current_index": 1,
                       "skip_captured": false});
     let off = plan(&app, &id, body).await;

@@ -261,15 +261,21 @@ impl TargetClock {
     /// Seconds the next fixed item of `view`'s stack has been the target (0 when it has
     /// just become the target), `None` when no fixed item is left.
     pub fn pending_s(&mut self, view: &View<'_>) -> Option<f64> {
-        let stack = view.stack;
-        let next = planner::next_fixed(&stack.items, stack.current)
-            .map(|j| position_bits(&stack.items[j]));
+        self.aim(&view.stack.items, view.stack.current, view.t_s);
+        self.target.map(|(_, since)| view.t_s - since)
+    }
+
+    /// The stack `items` is flown from `current` at `t_s`: its next fixed item keeps its
+    /// clock while it stays the target, and one that has just become the target (a plan
+    /// made at `t_s` skipped a waypoint captured on the way, or flies a missed one again)
+    /// has been the target since `t_s`. The server keeps the same clock in its revisions.
+    pub fn aim(&mut self, items: &[planner::StackItem], current: usize, t_s: f64) {
+        let next = planner::next_fixed(items, current).map(|j| position_bits(&items[j]));
         self.target = match (next, self.target) {
             (Some(k), Some((old, since))) if k == old => Some((k, since)),
-            (Some(k), _) => Some((k, view.t_s)),
+            (Some(k), _) => Some((k, t_s)),
             (None, _) => None,
         };
-        self.target.map(|(_, since)| view.t_s - since)
     }
 
     /// The mission waypoint `view`'s autopilot has just gone past too wide
@@ -373,6 +379,8 @@ pub fn replan_command(
                     trace_target(view, read, &p.plan);
                 }
             }
+            // The plan's next fixed item is flown from now on.
+            clock.aim(&p.plan.items, p.plan.current_index, view.t_s);
             Command::Replace(Stack {
                 items: p.plan.items,
                 current: p.plan.current_index,
@@ -689,6 +697,43 @@ mod tests {
         assert!((m.closest_m - 35f64.hypot(20.0)).abs() < 1e-6, "{m:?}");
         assert_eq!(clock.pending_s(&v2), Some(1.0));
         assert_eq!(clock.missed(&v2), None);
+    }
+
+    #[test]
+    fn a_target_a_plan_puts_next_has_been_pending_since_that_plan() {
+        let mission = Mission::default();
+        let aircraft = AircraftParams::default();
+        let (w0, w1) = (
+            StackItem::mission(0, [0.0, 0.0], 100.0),
+            StackItem::mission(1, [0.0, 1000.0], 100.0),
+        );
+        let track = [(0.0, [0.0, -200.0, 100.0])];
+        let mut clock = TargetClock::default();
+        let both = Stack {
+            items: vec![w0, w1],
+            current: 0,
+        };
+        assert_eq!(
+            clock.pending_s(&view(0.0, &both, &track, &mission, &aircraft)),
+            Some(0.0)
+        );
+        // The plan at 5 s keeps waypoint 0 next: its clock runs on.
+        clock.aim(&both.items, 0, 5.0);
+        assert_eq!(
+            clock.pending_s(&view(6.0, &both, &track, &mission, &aircraft)),
+            Some(6.0)
+        );
+        // The plan at 7 s skipped it (captured on the way): waypoint 1 is the target from
+        // 7 s, not from 0 s and not only from the next call.
+        let skipped = Stack {
+            items: vec![w1],
+            current: 0,
+        };
+        clock.aim(&skipped.items, 0, 7.0);
+        assert_eq!(
+            clock.pending_s(&view(8.0, &skipped, &track, &mission, &aircraft)),
+            Some(1.0)
+        );
     }
 
     #[test]
