@@ -929,3 +929,134 @@ fn a_view_reads_an_obstacle_faster_than_the_aircraft_at_its_weight_within_the_wi
         }
     }
 }
+
+#[test]
+fn a_view_reads_a_fast_obstacle_at_the_weight_of_each_slice() {
+    // The flyers of the test above; obstacles faster than 10 m/s read at 1 up to +4 s, 3
+    // from there to +8 s, 1.5 to +12 s, then at 1 (the planner's per-obstacle near window
+    // ramps its weight so: replan.rs, VerifyParams::fast_near_s). A weight that is not a
+    // whole number scales the particle count and rounds it.
+    let mut p = Predictor::new(PredictorConfig::default());
+    observe_for(&mut p, "fast", 14, |t| {
+        [-150.0 + 20.0 * t, 30.0 * (t / 3.0).sin()]
+    });
+    feed(
+        &mut p,
+        "slow",
+        Behaviour::Uniform { w: 0.2 },
+        21,
+        [0.0, 0.0],
+    );
+    let t0 = 14.0;
+    let w = |at: f64| {
+        if at <= 4.0 + 1e-9 {
+            1.0
+        } else if at <= 8.0 + 1e-9 {
+            3.0
+        } else if at <= 12.0 + 1e-9 {
+            1.5
+        } else {
+            1.0
+        }
+    };
+    for sparse in [false, true] {
+        let c = cfg().time(0.5, 30.0).sparse_fine(sparse);
+        let particles = c.particles as f64;
+        let full = p.build_risk_map(&c, &[], t0).unwrap();
+        let alone = |id: &str| {
+            let mut m = full.clone();
+            for other in ["fast", "slow"].into_iter().filter(|o| *o != id) {
+                m.remove_obstacle(other);
+            }
+            m
+        };
+        let (fast, slow) = (alone("fast"), alone("slow"));
+        let view = full.altitude_view::<_, &str>([]).fast_weights(10.0, w);
+        let flat = full
+            .altitude_view::<_, &str>([])
+            .fast_weights(10.0, |_| 1.0);
+        let mut seen = [0usize; 3];
+        for k in 0..=40 {
+            // Slice times only: between two slices each is read at its own weight.
+            let t = t0 + f64::from(k) * 0.5;
+            let at = t - t0;
+            for iy in -25..=25 {
+                for ix in -40..=79 {
+                    let q = [f64::from(ix) * 5.0 + 1.3, f64::from(iy) * 5.0 - 0.7];
+                    let got = view.risk(q, t);
+                    let (pf, ps) = (fast.risk(q, t), slow.risk(q, t));
+                    let count = (pf * particles).round();
+                    let weighted = ((count * w(at)).round() / particles).min(1.0);
+                    let want = 1.0 - (1.0 - weighted) * (1.0 - ps);
+                    assert!(
+                        (got - want).abs() < 1e-5,
+                        "sparse {sparse}, {q:?} at +{at} s: {got} against {want} \
+                         (fast {pf}, slow {ps}, weight {})",
+                        w(at)
+                    );
+                    assert!((flat.risk(q, t) - full.risk(q, t)).abs() < 1e-6);
+                    if pf > 0.01 && pf < 0.3 {
+                        if at > 12.0 {
+                            seen[0] += 1;
+                        } else if at > 8.0 {
+                            seen[2] += 1;
+                        } else if at > 4.0 {
+                            seen[1] += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(seen.iter().all(|&n| n > 100), "{seen:?}");
+        // The segment bound stays a bound of the weighted reads, also for a segment that
+        // starts before the weighted slices and ends in them.
+        for (a, b, ta, tb) in [
+            ([140.0, -40.0], [280.0, 40.0], 1.0, 7.0),
+            ([180.0, -60.0], [220.0, 60.0], 3.0, 5.0),
+            ([120.0, 0.0], [360.0, 0.0], 2.0, 11.0),
+        ] {
+            let bound = view.segment_risk_bound(a, b, t0 + ta, t0 + tb);
+            let mut peak: f64 = 0.0;
+            for i in 0..=60 {
+                let f = f64::from(i) / 60.0;
+                let q = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
+                let r = view.risk(q, t0 + ta + (tb - ta) * f);
+                peak = peak.max(r);
+                assert!(r <= bound + 1e-9, "{r} over the bound {bound}");
+            }
+            assert!(peak > 0.0, "segment {a:?} -> {b:?} meets no risk");
+        }
+        // A segment whose first slice is read at 1 and the rest at 5 (both obstacles
+        // counted as fast): its weighted reads go over the unweighted bound, so the bound
+        // must weigh the later slices though the first is not weighted.
+        let late = full
+            .altitude_view::<_, &str>([])
+            .fast_weights(1.0, |at| if at <= 10.0 + 1e-9 { 1.0 } else { 5.0 });
+        // Through the fast flyer's likeliest cell at +11 s, at its speed, from +10 s
+        // to +12 s: its cloud is spread thin by then.
+        let mut m = [300.0, 0.0];
+        for iy in -60..=60 {
+            for ix in 50..=79 {
+                let q = [f64::from(ix) * 5.0, f64::from(iy) * 5.0];
+                if fast.risk(q, t0 + 11.0) > fast.risk(m, t0 + 11.0) {
+                    m = q;
+                }
+            }
+        }
+        let (a, b, ta, tb) = ([m[0] - 20.0, m[1]], [m[0] + 20.0, m[1]], 10.0, 12.0);
+        let bound = late.segment_risk_bound(a, b, t0 + ta, t0 + tb);
+        let unweighted = full.segment_risk_bound(a, b, t0 + ta, t0 + tb);
+        let mut peak: f64 = 0.0;
+        for i in 0..=100 {
+            let f = f64::from(i) / 100.0;
+            let q = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
+            let r = late.risk(q, t0 + ta + (tb - ta) * f);
+            peak = peak.max(r);
+            assert!(r <= bound + 1e-9, "{r} over the bound {bound}");
+        }
+        assert!(
+            peak > unweighted,
+            "sparse {sparse}: {peak} within {unweighted}"
+        );
+    }
+}

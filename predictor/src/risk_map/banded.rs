@@ -34,9 +34,10 @@ pub struct AltitudeView<'a> {
     /// with a mask keeps those whose bits the mask misses, without walking the map's tree
     /// or `reach` for each obstacle at each point.
     order: Vec<(&'a Contribution, u64)>,
-    /// [`AltitudeView::fast_weight`]: the weight, and the last slice time (on the map's
-    /// clock) it applies to; `None`: every obstacle at weight 1.
-    fast: Option<(u32, f64)>,
+    /// [`AltitudeView::fast_weight`] and [`AltitudeView::fast_weights`]: per slice of the
+    /// map, the weight fast obstacles are read at, with the first and last slice whose
+    /// weight is not 1; `None`: every obstacle at weight 1.
+    fast: Option<(Vec<f64>, usize, usize)>,
     /// Per entry of `order`, whether the obstacle is read at the `fast` weight.
     is_fast: Vec<bool>,
 }
@@ -117,20 +118,20 @@ impl RiskMap {
     }
 
     /// Risk of slice `k` at `p_m` from the contributions `kept` (unfiltered ones, in the
-    /// map's order), each with the weight its counts are read at in the slices up to
-    /// `weighted_to_s` ([`AltitudeView::fast_weight`]; 1 elsewhere).
+    /// map's order), each with whether it is read at the fast weight of its slice
+    /// (`fast_w`, per slice; [`AltitudeView::fast_weights`]; 1 for the others).
     pub(super) fn slice_risk_of<'c>(
         &self,
         p_m: [f64; 2],
         k: usize,
-        kept: impl Iterator<Item = (&'c Contribution, u32)>,
-        weighted_to_s: f64,
+        kept: impl Iterator<Item = (&'c Contribution, bool)>,
+        fast_w: Option<&[f64]>,
     ) -> f64 {
         let cell = self.cell_of(p_m, k);
-        let weighted = self.slice_time(k) <= weighted_to_s;
+        let w_k = fast_w.map_or(1.0, |w| w[k]);
         let mut q = 1.0f64;
-        for (c, weight) in kept {
-            let weight = if weighted { weight } else { 1 };
+        for (c, fast) in kept {
+            let weight = if fast { w_k } else { 1.0 };
             if !self.touches(c, p_m, k) {
                 continue;
             }
@@ -160,12 +161,12 @@ impl RiskMap {
         p_m: [f64; 2],
         k: usize,
         w: f64,
-        kept: impl Iterator<Item = (&'c Contribution, u32)>,
-        weighted_to_s: f64,
+        kept: impl Iterator<Item = (&'c Contribution, bool)>,
+        fast_w: Option<&[f64]>,
     ) -> f64 {
-        let weighted = [k, k + 1].map(|kk| self.slice_time(kk) <= weighted_to_s);
+        let weighted = [k, k + 1].map(|kk| fast_w.map_or(1.0, |fw| fw[kk]));
         let mut q = 1.0f64;
-        for (c, weight) in kept {
+        for (c, fast) in kept {
             if c.disc.is_some() {
                 if self.touches(c, p_m, k) || self.touches(c, p_m, k + 1) {
                     return 1.0;
@@ -179,7 +180,7 @@ impl RiskMap {
                 if self.touches(c, at, kk)
                     && let Some(cell) = self.cell_of(at, kk)
                 {
-                    let weight = if weighted { weight } else { 1 };
+                    let weight = if fast { weighted } else { 1.0 };
                     n = n.max(self.weighted(Self::count_at(c, kk, cell), weight));
                 }
             }
@@ -190,11 +191,14 @@ impl RiskMap {
         1.0 - q
     }
 
-    /// Count `n` of an obstacle read at `weight` ([`AltitudeView::fast_weight`]), as an
-    /// index of the one-minus-p table: `weight * n`, at most every particle.
+    /// Count `n` of an obstacle read at `weight` ([`AltitudeView::fast_weights`]), as an
+    /// index of the one-minus-p table: `weight * n` rounded, at most every particle.
     #[inline]
-    fn weighted(&self, n: u16, weight: u32) -> usize {
-        (u32::from(n) * weight).min(self.cfg.particles as u32) as usize
+    fn weighted(&self, n: u16, weight: f64) -> usize {
+        if weight == 1.0 {
+            return usize::from(n).min(self.cfg.particles);
+        }
+        ((f64::from(n) * weight).round().max(0.0) as usize).min(self.cfg.particles)
     }
 
     /// The cell of slice `k` holding `p_m` (`None` outside the grid).
@@ -217,8 +221,8 @@ impl RiskMap {
         b_m: [f64; 2],
         t0_s: f64,
         t1_s: f64,
-        kept: impl Iterator<Item = (&'c Contribution, u32)>,
-        weighted_to_s: f64,
+        kept: impl Iterator<Item = (&'c Contribution, bool)>,
+        fast_w: Option<&[f64]>,
     ) -> f64 {
         let (ka, kb) = (
             self.bracket(t0_s.min(t1_s)).0,
@@ -232,7 +236,7 @@ impl RiskMap {
             a_m[1].max(b_m[1]),
         ];
         let mut keep_p = 1.0f64;
-        for (c, weight) in kept {
+        for (c, fast) in kept {
             if let Some(d) = c.disc {
                 let until = self.disc_until_s();
                 if self.slice_time(k0) > until {
@@ -248,12 +252,11 @@ impl RiskMap {
             let meets = |bb: [f64; 4]| meets(bb, sb);
             // Slice k's peak at the weight it is read at.
             let peak_at = |k: usize| {
-                let w = if self.slice_time(k) <= weighted_to_s {
-                    weight
-                } else {
-                    1
+                let w = match fast_w {
+                    Some(fw) if fast => fw[k],
+                    _ => 1.0,
                 };
-                (f64::from(w) * f64::from(c.max_p[k])).min(1.0)
+                (w * f64::from(c.max_p[k])).min(1.0)
             };
             let mut peak: f64 = 0.0;
             for k in k0..=k1 {
@@ -317,31 +320,50 @@ impl AltitudeView<'_> {
     /// changes nothing. A read between the window's last slice and the next reads the
     /// former at the weight and the latter at 1 (the weight goes by slice).
     #[must_use]
-    pub fn fast_weight(mut self, above_mps: f64, weight: u32, within_s: f64) -> Self {
+    pub fn fast_weight(self, above_mps: f64, weight: u32, within_s: f64) -> Self {
         if weight <= 1 {
             return self;
         }
+        let w = f64::from(weight);
+        self.fast_weights(
+            above_mps,
+            |at_s| if at_s <= within_s + 1e-9 { w } else { 1.0 },
+        )
+    }
+
+    /// Reads every obstacle whose speed (its motion model's, when it was put in the map)
+    /// is above `above_mps` at `weight(t)` times its probability (its particle count
+    /// scaled and rounded, at most 1) in the slice `t` seconds after the map's slice 0;
+    /// other obstacles at their own. The weight goes by slice: a read between two slices
+    /// reads each at its own. A weight of 1 in every slice changes nothing.
+    #[must_use]
+    pub fn fast_weights(mut self, above_mps: f64, weight: impl Fn(f64) -> f64) -> Self {
+        let m = self.map;
+        let w: Vec<f64> = (0..m.slices())
+            .map(|k| weight(m.slice_time(k) - m.t0_s()).max(0.0))
+            .collect();
+        let (Some(first), Some(last)) = (
+            w.iter().position(|&x| x != 1.0),
+            w.iter().rposition(|&x| x != 1.0),
+        ) else {
+            return self;
+        };
         self.is_fast = self
             .order
             .iter()
             .map(|(c, _)| c.disc.is_none() && c.speed_mps > above_mps)
             .collect();
-        self.fast = self
-            .is_fast
-            .iter()
-            .any(|&f| f)
-            .then_some((weight, self.map.t0_s() + within_s + 1e-9));
+        self.fast = self.is_fast.iter().any(|&f| f).then_some((w, first, last));
         self
     }
 
-    /// The weight of fast obstacles in a read at `t_s` (or a segment from it), with the
-    /// last slice time it applies to; `(1, -inf)` when the first slice the read uses lies
-    /// beyond the window (or nothing is weighted).
+    /// The per-slice weights of fast obstacles when any slice from `k0` to `k1` reads one
+    /// at a weight other than 1.
     #[inline]
-    fn weight_at(&self, t_s: f64) -> (u32, f64) {
-        match self.fast {
-            Some((w, until)) if self.map.slice_time(self.map.bracket(t_s).0) <= until => (w, until),
-            _ => (1, f64::NEG_INFINITY),
+    fn weights_in(&self, k0: usize, k1: usize) -> Option<&[f64]> {
+        match &self.fast {
+            Some((w, first, last)) if k0 <= *last && k1 >= *first => Some(w.as_slice()),
+            _ => None,
         }
     }
 
@@ -355,25 +377,23 @@ impl AltitudeView<'_> {
             .fold(0, |m, (i, _)| m | (1 << i))
     }
 
-    /// The contributions a read with `mask` keeps, in the map's order, each with its
-    /// weight (`weight` for a fast obstacle, else 1).
-    fn kept(&self, mask: u64, weight: u32) -> impl Iterator<Item = (&Contribution, u32)> {
+    /// The contributions a read with `mask` keeps, in the map's order, each with whether
+    /// it is read at the fast weight.
+    fn kept(&self, mask: u64) -> impl Iterator<Item = (&Contribution, bool)> {
         self.order
             .iter()
             .zip(&self.is_fast)
             .filter(move |&(&(_, bits), _)| bits & mask == 0)
-            .map(move |(&(c, _), &fast)| (c, if fast { weight } else { 1 }))
+            .map(move |(&(c, _), &fast)| (c, fast))
     }
 
-    /// Risk of slice `k` at `p_m` without the entries of `mask`, fast obstacles at
-    /// `weight`.
-    fn slice_risk_masked(&self, p_m: [f64; 2], k: usize, mask: u64, weight: (u32, f64)) -> f64 {
+    /// Risk of slice `k` at `p_m` without the entries of `mask`, fast obstacles at their
+    /// weight.
+    fn slice_risk_masked(&self, p_m: [f64; 2], k: usize, mask: u64) -> f64 {
         let m = self.map;
-        let (weight, to_s) = weight;
-        if (weight > 1 && m.slice_time(k) <= to_s)
-            || Bits(mask).any(|i| m.touches(self.reach[i].0, p_m, k))
-        {
-            m.slice_risk_of(p_m, k, self.kept(mask, weight), to_s)
+        let fast_w = self.weights_in(k, k);
+        if fast_w.is_some() || Bits(mask).any(|i| m.touches(self.reach[i].0, p_m, k)) {
+            m.slice_risk_of(p_m, k, self.kept(mask), fast_w)
         } else {
             m.slice_risk(p_m, k)
         }
@@ -382,29 +402,34 @@ impl AltitudeView<'_> {
     /// The worse of the two slices bracketing `t_s`, as [`RiskMap`]'s `risk`, without the
     /// entries of `mask` (none, and no weight: the map's own read, one load per slice).
     fn read(&self, p_m: [f64; 2], t_s: f64, mask: u64) -> f64 {
-        let weight = self.weight_at(t_s);
-        if mask == 0 && weight.0 == 1 {
+        let (k0, k1) = self.map.bracket(t_s);
+        let fast_w = self.weights_in(k0, k1);
+        if mask == 0 && fast_w.is_none() {
             return self.map.risk(p_m, t_s);
         }
         if let Some((k, w)) = self.map.sparse_between(t_s) {
             return self
                 .map
-                .between_risk_of(p_m, k, w, self.kept(mask, weight.0), weight.1)
+                .between_risk_of(p_m, k, w, self.kept(mask), fast_w)
                 .clamp(0.0, 1.0);
         }
         self.map
-            .worse_of_bracket(t_s, |k| self.slice_risk_masked(p_m, k, mask, weight))
+            .worse_of_bracket(t_s, |k| self.slice_risk_masked(p_m, k, mask))
     }
 
     /// The segment bound without the entries of `mask` (fast obstacles at their weight in
-    /// the slices of their window: still a bound of `read`).
+    /// each slice: still a bound of `read`).
     fn bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64, mask: u64) -> f64 {
-        let weight = self.weight_at(t0_s.min(t1_s));
-        if mask == 0 && weight.0 == 1 {
+        let (k0, k1) = (
+            self.map.bracket(t0_s.min(t1_s)).0,
+            self.map.bracket(t0_s.max(t1_s)).1,
+        );
+        let fast_w = self.weights_in(k0.min(k1), k0.max(k1));
+        if mask == 0 && fast_w.is_none() {
             return self.map.segment_risk_bound(a_m, b_m, t0_s, t1_s);
         }
         self.map
-            .segment_bound_of(a_m, b_m, t0_s, t1_s, self.kept(mask, weight.0), weight.1)
+            .segment_bound_of(a_m, b_m, t0_s, t1_s, self.kept(mask), fast_w)
     }
 }
 

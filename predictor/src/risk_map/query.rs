@@ -23,14 +23,14 @@ impl RiskMap {
         0.0
     }
 
-    /// Every obstacle's part but the filtered ones, in the map's order, each read at its
-    /// own weight (1).
+    /// Every obstacle's part but the filtered ones, in the map's order, none read at a
+    /// fast weight.
     #[inline]
-    pub(super) fn unfiltered(&self) -> impl Iterator<Item = (&super::Contribution, u32)> {
+    pub(super) fn unfiltered(&self) -> impl Iterator<Item = (&super::Contribution, bool)> {
         self.contrib
             .values()
             .filter(|c| !c.filtered)
-            .map(|c| (c, 1))
+            .map(|c| (c, false))
     }
 
     /// The slice nearest `t_s`, for rendering.
@@ -92,7 +92,7 @@ impl RiskMap {
     pub(super) fn slice_risk(&self, p_m: [f64; 2], k: usize) -> f64 {
         let g = &self.geo[k];
         if g.sparse {
-            return self.slice_risk_of(p_m, k, self.unfiltered(), f64::NEG_INFINITY);
+            return self.slice_risk_of(p_m, k, self.unfiltered(), None);
         }
         let fx = (p_m[0] - self.cfg.min_m[0]) * g.inv_cell;
         let fy = (p_m[1] - self.cfg.min_m[1]) * g.inv_cell;
@@ -166,7 +166,7 @@ impl RiskField for RiskMap {
     fn risk(&self, p_m: [f64; 2], t_s: f64) -> f64 {
         if let Some((k, w)) = self.sparse_between(t_s) {
             return self
-                .between_risk_of(p_m, k, w, self.unfiltered(), f64::NEG_INFINITY)
+                .between_risk_of(p_m, k, w, self.unfiltered(), None)
                 .clamp(0.0, 1.0);
         }
         self.worse_of_bracket(t_s, |k| self.slice_risk(p_m, k))
@@ -177,6 +177,6 @@ impl RiskField for RiskMap {
     /// segment comes within a NoFly disc (as it is at the later of the segment's slices,
     /// or at the end of [`crate::RiskMapConfig::nofly_horizon_s`]).
     fn segment_risk_bound(&self, a_m: [f64; 2], b_m: [f64; 2], t0_s: f64, t1_s: f64) -> f64 {
-        self.segment_bound_of(a_m, b_m, t0_s, t1_s, self.unfiltered(), f64::NEG_INFINITY)
+        self.segment_bound_of(a_m, b_m, t0_s, t1_s, self.unfiltered(), None)
     }
 }
