@@ -403,7 +403,7 @@ pub fn replan(
     };
     // Each leg reads the map for its own altitudes: a sphere out of their reach is passed
     // over or under there, though other legs of the route meet it (crate::cost::leg_bands).
-    let view;
+    let mut view;
     let risk: &dyn RiskField = match banded {
         Some((map, obstacles)) => {
             // Only obstacles that miss some of the route's altitudes can be left out of
@@ -426,6 +426,24 @@ pub fn replan(
                     cfg.plan.verify.fast_weight,
                     cfg.plan.verify.near_s,
                 );
+            // A near window of their own for obstacles faster than the aircraft
+            // (VerifyParams::fast_near_s; off by default): read at the ratio of the
+            // graded limit to the one graded from their window, they meet the latter.
+            let v = &cfg.plan.verify;
+            if v.fast_weight <= 1 && v.fast_near_s > v.near_s && cfg.plan.safe_risk > 0.0 {
+                let (safe, far, h) = (cfg.plan.safe_risk, v.far_risk, cfg.plan.horizon_s);
+                let limit = |near: f64, t: f64| {
+                    if t <= near || h <= near {
+                        safe
+                    } else {
+                        safe + (far - safe).max(0.0) * (t - near) / (h - near)
+                    }
+                };
+                let (near, fast_near) = (v.near_s, v.fast_near_s);
+                view = view.fast_weights(r.aircraft.speed_mps, |t| {
+                    limit(near, t) / limit(fast_near, t)
+                });
+            }
             &view
         }
         None => risk,

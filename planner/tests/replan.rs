@@ -618,3 +618,56 @@ fn an_obstacle_faster_than_the_aircraft_counts_twice_within_the_near_window() {
         "{compared} compared, {flipped} flipped, {beyond} beyond the window"
     );
 }
+
+#[test]
+fn an_obstacle_faster_than_the_aircraft_keeps_the_longer_near_window_of_its_own() {
+    // The flyer of the test above, at 25 m/s beside the 20 m/s aircraft, the stack flown
+    // as given. With a 7 s near window and 10 s for obstacles faster than the aircraft
+    // (VerifyParams::fast_near_s), its risk is graded as the 10 s window grades it: the
+    // same graded peak and verdict as a 10 s window for every obstacle, to the rounding of
+    // a weighted particle count. Slower than the aircraft (cruise 30 m/s), it has the
+    // 7 s window, exactly as without the longer one. Some of these routes are clear with
+    // a 7 s window and not with 10 s: the longer window of its own is what decides them.
+    let m = mission();
+    let stack = mission_stack(&m);
+    let plan = |p: &Predictor, near: f64, fast_near: f64, cruise: f64| {
+        let mut cfg = config();
+        cfg.plan.verify.near_s = near;
+        cfg.plan.verify.fast_near_s = fast_near;
+        let mut r = Replan {
+            strategy: Strategy::None,
+            ..request(&m, &stack, 5)
+        };
+        r.aircraft.speed_mps = cruise;
+        replan(&r, Dynamic::Predictor(p), &cfg, &Termination::none())
+            .expect("plan")
+            .plan
+            .verification
+    };
+    let (mut met, mut decided) = (0, 0);
+    for north in (90..=250).step_by(4) {
+        let p = weaving_flyer(25.0, f64::from(north));
+        let ten = plan(&p, 10.0, 10.0, 20.0);
+        let seven = plan(&p, 7.0, 7.0, 20.0);
+        let own = plan(&p, 7.0, 10.0, 20.0);
+        assert!(
+            (own.graded_peak_risk - ten.graded_peak_risk).abs() < 0.005,
+            "{north} m north: graded peak {} with its own window, {} with 10 s for all",
+            own.graded_peak_risk,
+            ten.graded_peak_risk
+        );
+        if (ten.graded_peak_risk - 0.1).abs() > 0.005 {
+            assert_eq!(own.is_clear(0.1), ten.is_clear(0.1), "{north} m north");
+        }
+        // Not faster than the aircraft: the 7 s window's verification, exactly.
+        assert_eq!(plan(&p, 7.0, 10.0, 30.0), plan(&p, 7.0, 7.0, 30.0));
+        if ten.graded_peak_risk > 0.0 {
+            met += 1;
+        }
+        if seven.is_clear(0.1) && !ten.is_clear(0.1) {
+            assert!(!own.is_clear(0.1), "{north} m north");
+            decided += 1;
+        }
+    }
+    assert!(met >= 5 && decided >= 1, "{met} met, {decided} decided");
+}
