@@ -551,6 +551,21 @@ fn weaving_flyer(speed: f64, north_m: f64) -> Predictor {
     })
 }
 
+/// The mission's stack planned with strategy none (flown as given) against `p` on `cfg`,
+/// for an aircraft reporting a cruise speed of `cruise` m/s.
+fn flown_as_given(p: &Predictor, cfg: &ReplanConfig, cruise: f64) -> planner::Plan {
+    let m = mission();
+    let stack = mission_stack(&m);
+    let mut r = Replan {
+        strategy: Strategy::None,
+        ..request(&m, &stack, 5)
+    };
+    r.aircraft.speed_mps = cruise;
+    replan(&r, Dynamic::Predictor(p), cfg, &Termination::none())
+        .expect("plan")
+        .plan
+}
+
 #[test]
 fn an_obstacle_faster_than_the_aircraft_counts_twice_within_the_near_window() {
     // The stack straight east along the leg, flown as given (strategy none), beside a
@@ -560,19 +575,11 @@ fn an_obstacle_faster_than_the_aircraft_counts_twice_within_the_near_window() {
     // with an aircraft whose cruise speed is 30 m/s (its route still timed at the 20 m/s
     // it reports) is not faster, and counts once; met beyond the near window, it counts
     // once too.
-    let m = mission();
-    let stack = mission_stack(&m);
+    let stack = mission_stack(&mission());
     let plan = |p: &Predictor, weight: u32, cruise: f64| {
         let mut cfg = config();
         cfg.plan.verify.fast_weight = weight;
-        let mut r = Replan {
-            strategy: Strategy::None,
-            ..request(&m, &stack, 5)
-        };
-        r.aircraft.speed_mps = cruise;
-        replan(&r, Dynamic::Predictor(p), &cfg, &Termination::none())
-            .expect("plan")
-            .plan
+        flown_as_given(p, &cfg, cruise)
     };
     assert_eq!(config().plan.verify.fast_weight, 1, "off by default");
     let (mut compared, mut flipped) = (0, 0);
@@ -628,21 +635,11 @@ fn an_obstacle_faster_than_the_aircraft_keeps_the_longer_near_window_of_its_own(
     // a weighted particle count. Slower than the aircraft (cruise 30 m/s), it has the
     // 7 s window, exactly as without the longer one. Some of these routes are clear with
     // a 7 s window and not with 10 s: the longer window of its own is what decides them.
-    let m = mission();
-    let stack = mission_stack(&m);
     let plan = |p: &Predictor, near: f64, fast_near: f64, cruise: f64| {
         let mut cfg = config();
         cfg.plan.verify.near_s = near;
         cfg.plan.verify.fast_near_s = fast_near;
-        let mut r = Replan {
-            strategy: Strategy::None,
-            ..request(&m, &stack, 5)
-        };
-        r.aircraft.speed_mps = cruise;
-        replan(&r, Dynamic::Predictor(p), &cfg, &Termination::none())
-            .expect("plan")
-            .plan
-            .verification
+        flown_as_given(p, &cfg, cruise).verification
     };
     let (mut met, mut decided) = (0, 0);
     for north in (90..=250).step_by(4) {

@@ -842,10 +842,9 @@ fn between_fine_slices_a_moving_sphere_is_read_where_it_is_not_where_both_slices
     }
 }
 
-#[test]
-fn a_view_reads_an_obstacle_faster_than_the_aircraft_at_its_weight_within_the_window_only() {
-    // A weaving flyer at about 20 m/s and a slow turner (about 2.4 m/s) whose clouds
-    // overlap; the view weights obstacles faster than 10 m/s by 2 for the first 10 s.
+/// A weaving flyer at about 20 m/s ("fast") and a slow turner at about 2.4 m/s ("slow")
+/// whose clouds overlap, watched up to t = 14 s.
+fn two_flyers() -> Predictor {
     let mut p = Predictor::new(PredictorConfig::default());
     observe_for(&mut p, "fast", 14, |t| {
         [-150.0 + 20.0 * t, 30.0 * (t / 3.0).sin()]
@@ -857,18 +856,43 @@ fn a_view_reads_an_obstacle_faster_than_the_aircraft_at_its_weight_within_the_wi
         21,
         [0.0, 0.0],
     );
+    p
+}
+
+/// The highest of 101 reads of `field` along the segment from `a` at `ta` to `b` at `tb`,
+/// each asserted within the segment's risk bound.
+fn peak_within_bound(field: &impl RiskField, a: [f64; 2], b: [f64; 2], ta: f64, tb: f64) -> f64 {
+    let bound = field.segment_risk_bound(a, b, ta, tb);
+    let mut peak: f64 = 0.0;
+    for i in 0..=100 {
+        let f = f64::from(i) / 100.0;
+        let q = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
+        let r = field.risk(q, ta + (tb - ta) * f);
+        assert!(r <= bound + 1e-9, "{r} over the bound {bound}");
+        peak = peak.max(r);
+    }
+    peak
+}
+
+/// `full` with obstacle `id` of [`two_flyers`] alone.
+fn alone(full: &predictor::RiskMap, id: &str) -> predictor::RiskMap {
+    let mut m = full.clone();
+    for other in ["fast", "slow"].into_iter().filter(|o| *o != id) {
+        m.remove_obstacle(other);
+    }
+    m
+}
+
+#[test]
+fn a_view_reads_an_obstacle_faster_than_the_aircraft_at_its_weight_within_the_window_only() {
+    // A weaving flyer at about 20 m/s and a slow turner (about 2.4 m/s) whose clouds
+    // overlap; the view weights obstacles faster than 10 m/s by 2 for the first 10 s.
+    let p = two_flyers();
     let t0 = 14.0;
     for sparse in [false, true] {
         let c = cfg().time(0.5, 30.0).sparse_fine(sparse);
         let full = p.build_risk_map(&c, &[], t0).unwrap();
-        let alone = |id: &str| {
-            let mut m = full.clone();
-            for other in ["fast", "slow"].into_iter().filter(|o| *o != id) {
-                m.remove_obstacle(other);
-            }
-            m
-        };
-        let (fast, slow) = (alone("fast"), alone("slow"));
+        let (fast, slow) = (alone(&full, "fast"), alone(&full, "slow"));
         let view = full.altitude_view::<_, &str>([]).fast_weight(10.0, 2, 10.0);
         let unweighted = full.altitude_view::<_, &str>([]).fast_weight(10.0, 1, 10.0);
         let (mut doubled, mut capped) = (0, 0);
@@ -936,17 +960,7 @@ fn a_view_reads_a_fast_obstacle_at_the_weight_of_each_slice() {
     // from there to +8 s, 1.5 to +12 s, then at 1 (the planner's per-obstacle near window
     // ramps its weight so: replan.rs, VerifyParams::fast_near_s). A weight that is not a
     // whole number scales the particle count and rounds it.
-    let mut p = Predictor::new(PredictorConfig::default());
-    observe_for(&mut p, "fast", 14, |t| {
-        [-150.0 + 20.0 * t, 30.0 * (t / 3.0).sin()]
-    });
-    feed(
-        &mut p,
-        "slow",
-        Behaviour::Uniform { w: 0.2 },
-        21,
-        [0.0, 0.0],
-    );
+    let p = two_flyers();
     let t0 = 14.0;
     let w = |at: f64| {
         if at <= 4.0 + 1e-9 {
@@ -963,14 +977,7 @@ fn a_view_reads_a_fast_obstacle_at_the_weight_of_each_slice() {
         let c = cfg().time(0.5, 30.0).sparse_fine(sparse);
         let particles = c.particles as f64;
         let full = p.build_risk_map(&c, &[], t0).unwrap();
-        let alone = |id: &str| {
-            let mut m = full.clone();
-            for other in ["fast", "slow"].into_iter().filter(|o| *o != id) {
-                m.remove_obstacle(other);
-            }
-            m
-        };
-        let (fast, slow) = (alone("fast"), alone("slow"));
+        let (fast, slow) = (alone(&full, "fast"), alone(&full, "slow"));
         let view = full.altitude_view::<_, &str>([]).fast_weights(10.0, w);
         let flat = full
             .altitude_view::<_, &str>([])
@@ -1015,15 +1022,7 @@ fn a_view_reads_a_fast_obstacle_at_the_weight_of_each_slice() {
             ([180.0, -60.0], [220.0, 60.0], 3.0, 5.0),
             ([120.0, 0.0], [360.0, 0.0], 2.0, 11.0),
         ] {
-            let bound = view.segment_risk_bound(a, b, t0 + ta, t0 + tb);
-            let mut peak: f64 = 0.0;
-            for i in 0..=60 {
-                let f = f64::from(i) / 60.0;
-                let q = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
-                let r = view.risk(q, t0 + ta + (tb - ta) * f);
-                peak = peak.max(r);
-                assert!(r <= bound + 1e-9, "{r} over the bound {bound}");
-            }
+            let peak = peak_within_bound(&view, a, b, t0 + ta, t0 + tb);
             assert!(peak > 0.0, "segment {a:?} -> {b:?} meets no risk");
         }
         // A segment whose first slice is read at 1 and the rest at 5 (both obstacles
@@ -1044,16 +1043,8 @@ fn a_view_reads_a_fast_obstacle_at_the_weight_of_each_slice() {
             }
         }
         let (a, b, ta, tb) = ([m[0] - 20.0, m[1]], [m[0] + 20.0, m[1]], 10.0, 12.0);
-        let bound = late.segment_risk_bound(a, b, t0 + ta, t0 + tb);
         let unweighted = full.segment_risk_bound(a, b, t0 + ta, t0 + tb);
-        let mut peak: f64 = 0.0;
-        for i in 0..=100 {
-            let f = f64::from(i) / 100.0;
-            let q = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
-            let r = late.risk(q, t0 + ta + (tb - ta) * f);
-            peak = peak.max(r);
-            assert!(r <= bound + 1e-9, "{r} over the bound {bound}");
-        }
+        let peak = peak_within_bound(&late, a, b, t0 + ta, t0 + tb);
         assert!(
             peak > unweighted,
             "sparse {sparse}: {peak} within {unweighted}"
