@@ -432,13 +432,7 @@ pub fn replan(
             let v = &cfg.plan.verify;
             if v.fast_weight <= 1 && v.fast_near_s > v.near_s && cfg.plan.safe_risk > 0.0 {
                 let (safe, far, h) = (cfg.plan.safe_risk, v.far_risk, cfg.plan.horizon_s);
-                let limit = |near: f64, t: f64| {
-                    if t <= near || h <= near {
-                        safe
-                    } else {
-                        safe + (far - safe).max(0.0) * (t - near) / (h - near)
-                    }
-                };
+                let limit = |near: f64, t: f64| crate::verify::graded_limit(safe, far, near, h, t);
                 let (near, fast_near) = (v.near_s, v.fast_near_s);
                 view = view.fast_weights(r.aircraft.speed_mps, |t| {
                     limit(near, t) / limit(fast_near, t)

@@ -177,6 +177,32 @@ pub struct VerifyParams {
     pub fast_near_s: f64,
 }
 
+/// How fast the time-graded limit grows after the near window: from `safe_risk` to
+/// `far_risk` over `far_span_s` seconds (0 when there is no such span).
+fn limit_slope(safe_risk: f64, far_risk: f64, far_span_s: f64) -> f64 {
+    if far_span_s > 0.0 {
+        (far_risk - safe_risk).max(0.0) / far_span_s
+    } else {
+        0.0
+    }
+}
+
+/// The time-graded limit `t_s` seconds after the start, with a near window of `near_s`
+/// and the far limit reached at `horizon_s` (as a verification grades risk).
+pub(crate) fn graded_limit(
+    safe_risk: f64,
+    far_risk: f64,
+    near_s: f64,
+    horizon_s: f64,
+    t_s: f64,
+) -> f64 {
+    if t_s <= near_s {
+        safe_risk
+    } else {
+        safe_risk + limit_slope(safe_risk, far_risk, horizon_s - near_s) * (t_s - near_s)
+    }
+}
+
 /// The judges' waypoint capture distance, 100 ft in metres.
 pub const JUDGE_CAPTURE_M: f64 = 30.48;
 
@@ -787,11 +813,7 @@ pub fn verify_route_to_beat<'e>(
         safe_risk,
         near_end_s,
         early_end_s: state.t_s + params.early_s.max(params.near_s),
-        limit_slope: if far_span > 0.0 {
-            (params.far_risk - safe_risk).max(0.0) / far_span
-        } else {
-            0.0
-        },
+        limit_slope: limit_slope(safe_risk, params.far_risk, far_span),
         hit: vec![false; env0.cylinders.len()],
         cylinders: env0.cylinders,
         next_check_s: vec![f64::NEG_INFINITY; env0.cylinders.len()],

@@ -164,7 +164,7 @@ impl RiskMap {
         kept: impl Iterator<Item = (&'c Contribution, bool)>,
         fast_w: Option<&[f64]>,
     ) -> f64 {
-        let weighted = [k, k + 1].map(|kk| fast_w.map_or(1.0, |fw| fw[kk]));
+        let slice_w = [k, k + 1].map(|kk| fast_w.map_or(1.0, |fw| fw[kk]));
         let mut q = 1.0f64;
         for (c, fast) in kept {
             if c.disc.is_some() {
@@ -175,12 +175,12 @@ impl RiskMap {
             }
             let d = c.mean_move(k);
             let mut n = 0usize;
-            for ((kk, s), weighted) in [(k, -w), (k + 1, 1.0 - w)].into_iter().zip(weighted) {
+            for ((kk, s), w_kk) in [(k, -w), (k + 1, 1.0 - w)].into_iter().zip(slice_w) {
                 let at = [p_m[0] + s * d[0], p_m[1] + s * d[1]];
                 if self.touches(c, at, kk)
                     && let Some(cell) = self.cell_of(at, kk)
                 {
-                    let weight = if fast { weighted } else { 1.0 };
+                    let weight = if fast { w_kk } else { 1.0 };
                     n = n.max(self.weighted(Self::count_at(c, kk, cell), weight));
                 }
             }
@@ -424,7 +424,7 @@ impl AltitudeView<'_> {
             self.map.bracket(t0_s.min(t1_s)).0,
             self.map.bracket(t0_s.max(t1_s)).1,
         );
-        let fast_w = self.weights_in(k0.min(k1), k0.max(k1));
+        let fast_w = self.weights_in(k0, k1);
         if mask == 0 && fast_w.is_none() {
             return self.map.segment_risk_bound(a_m, b_m, t0_s, t1_s);
         }
