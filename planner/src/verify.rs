@@ -175,6 +175,13 @@ pub struct VerifyParams {
     /// 6, 5 of the 6 more at 14 m/s, where 4 in 10 of the spheres are faster than the
     /// aircraft (README, "A near window of their own for faster obstacles, not kept").
     pub fast_near_s: f64,
+    /// When [`VerifyParams::fast_near_s`] is longer than [`VerifyParams::near_s`], the
+    /// near-term peak and the near exposure (which the danger rule and the near-term
+    /// ranking read) also take the risk read between the two windows' ends, graded
+    /// (`r * safe / limit`, the limit grown from `near_s`): an obstacle faster than the
+    /// aircraft, read there at the ratio of the two limits (see `fast_near_s`), counts at
+    /// its own probability, a slower one at less. Default false (off).
+    pub fast_near_peak: bool,
 }
 
 /// How fast the time-graded limit grows after the near window: from `safe_risk` to
@@ -230,6 +237,7 @@ impl Default for VerifyParams {
             reversal_deg: 160.0,
             fast_weight: 1,
             fast_near_s: 10.0,
+            fast_near_peak: false,
         }
     }
 }
@@ -277,7 +285,9 @@ pub enum Conflict {
 pub struct Verification {
     /// Highest risk read on either path within the horizon.
     pub peak_risk: f64,
-    /// Highest risk read within [`VerifyParams::near_s`] of the start.
+    /// Highest risk read within [`VerifyParams::near_s`] of the start (and, with
+    /// [`VerifyParams::fast_near_peak`], the graded risk read up to
+    /// [`VerifyParams::fast_near_s`]).
     pub near_peak_risk: f64,
     /// Highest risk read within [`VerifyParams::early_s`] of the start (a window a few
     /// seconds longer than the near one).
@@ -616,6 +626,9 @@ struct Acc<'a> {
     out: Verification,
     safe_risk: f64,
     near_end_s: f64,
+    /// End of the window in which graded risk still counts toward the near-term peak
+    /// and exposure ([`VerifyParams::fast_near_peak`]); `near_end_s` when off.
+    fast_near_end_s: f64,
     /// End of the early window ([`VerifyParams::early_s`]).
     early_end_s: f64,
     /// The limit grows by this per second after `near_end_s`.
@@ -641,6 +654,10 @@ impl Acc<'_> {
         if t <= self.near_end_s {
             self.out.near_peak_risk = self.out.near_peak_risk.max(r);
             self.out.near_exposure += r;
+        } else if t <= self.fast_near_end_s {
+            let g = self.graded(r, self.limit_at(t));
+            self.out.near_peak_risk = self.out.near_peak_risk.max(g);
+            self.out.near_exposure += g;
         }
         if t <= self.early_end_s {
             self.out.early_peak_risk = self.out.early_peak_risk.max(r);
@@ -649,19 +666,30 @@ impl Acc<'_> {
         r
     }
 
-    /// Grades risk `r` read at `p` (reached at `t`) against the time-graded limit at
-    /// `t_limit_s`: the graded peak, and the first conflict when `r` is over the limit.
-    fn grade(&mut self, r: f64, p: Point, t: f64, t_limit_s: f64) {
-        let limit = if t_limit_s <= self.near_end_s {
+    /// The time-graded limit at `t_limit_s`: the safe risk within the near window, then
+    /// growing by `limit_slope` a second.
+    fn limit_at(&self, t_limit_s: f64) -> f64 {
+        if t_limit_s <= self.near_end_s {
             self.safe_risk
         } else {
             self.safe_risk + self.limit_slope * (t_limit_s - self.near_end_s)
-        };
-        let graded = if limit > 0.0 {
+        }
+    }
+
+    /// Risk `r` against `limit`, in units of the safe risk.
+    fn graded(&self, r: f64, limit: f64) -> f64 {
+        if limit > 0.0 {
             r * self.safe_risk / limit
         } else {
             r
-        };
+        }
+    }
+
+    /// Grades risk `r` read at `p` (reached at `t`) against the time-graded limit at
+    /// `t_limit_s`: the graded peak, and the first conflict when `r` is over the limit.
+    fn grade(&mut self, r: f64, p: Point, t: f64, t_limit_s: f64) {
+        let limit = self.limit_at(t_limit_s);
+        let graded = self.graded(r, limit);
         self.out.graded_peak_risk = self.out.graded_peak_risk.max(graded);
         if r > limit && self.out.conflict.is_none() {
             self.out.conflict = Some(Conflict::Risk {
@@ -812,6 +840,11 @@ pub fn verify_route_to_beat<'e>(
         },
         safe_risk,
         near_end_s,
+        fast_near_end_s: if params.fast_near_peak {
+            near_end_s.max(state.t_s + params.fast_near_s)
+        } else {
+            near_end_s
+        },
         early_end_s: state.t_s + params.early_s.max(params.near_s),
         limit_slope: limit_slope(safe_risk, params.far_risk, far_span),
         hit: vec![false; env0.cylinders.len()],
@@ -1929,6 +1962,59 @@ mod tests {
         let beyond = from(150.0);
         assert_eq!(beyond.early_peak_risk, 0.0, "{beyond:?}");
         assert!((beyond.peak_risk - 0.2).abs() < 1e-12, "{beyond:?}");
+    }
+
+    #[test]
+    fn between_the_near_and_the_fast_windows_the_near_peak_reads_graded_risk() {
+        // A 7 s near window with 10 s for faster obstacles, the near-term peak reading the
+        // gap between them (VerifyParams::fast_near_peak). Flying north at 20 m/s the band
+        // (480-520 m) is met 8.5 s ahead from y = 310: past the 7 s window, within the
+        // 10 s one. There the near-term peak reads the band's 0.2 graded by the limit
+        // grown from 7 s (0.05 + 0.95 * 1.5 / 53 at the 60 s horizon), about 0.13, and
+        // the near exposure counts it; without the rule, or with no gap, it reads 0.
+        let on = VerifyParams {
+            near_s: 7.0,
+            fast_near_s: 10.0,
+            fast_near_peak: true,
+            ..VerifyParams::default()
+        };
+        let off = VerifyParams {
+            fast_near_peak: false,
+            ..on
+        };
+        let no_gap = VerifyParams {
+            fast_near_s: 7.0,
+            ..on
+        };
+        let tail = [StackItem::mission(0, [0.0, 1000.0], 100.0)];
+        let from = |y: f64, params: &VerifyParams| {
+            let mut s = state(0.0);
+            s.p_m = [0.0, y];
+            check_with(&Band, &[], &s, &tail, params)
+        };
+        let gap = from(310.0, &on);
+        let want = 0.2 * 0.05 / graded_limit(0.05, 1.0, 7.0, 60.0, 8.5);
+        assert!((want - 0.13).abs() < 0.005, "{want}");
+        assert!((gap.near_peak_risk - want).abs() < 0.005, "{gap:?}");
+        assert!(gap.near_exposure > 0.0, "{gap:?}");
+        assert!(
+            (gap.peak_risk - 0.2).abs() < 1e-12,
+            "the raw peak is unchanged"
+        );
+        for params in [&off, &no_gap] {
+            let v = from(310.0, params);
+            assert_eq!((v.near_peak_risk, v.near_exposure), (0.0, 0.0), "{v:?}");
+            assert_eq!(
+                v.graded_peak_risk, gap.graded_peak_risk,
+                "grading is unchanged"
+            );
+        }
+        // Met 10.5 s ahead (from y = 270), past both windows: the rule reads nothing.
+        let beyond = from(270.0, &on);
+        assert_eq!(beyond.near_peak_risk, 0.0, "{beyond:?}");
+        // Met 5 s ahead (from y = 380), within the near window: read as it is.
+        let within = from(380.0, &on);
+        assert!((within.near_peak_risk - 0.2).abs() < 1e-12, "{within:?}");
     }
 
     #[test]
