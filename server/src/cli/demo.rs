@@ -666,6 +666,10 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
     // The stack item the aircraft flew toward when the plan in flight was asked for.
     let mut plan_in_flight: Option<usize> = None;
     let mut revision = 0_i64;
+    // The server refused our base revision (a newer one exists: a plan answered after we
+    // gave up on it, another client, or a restart): the next plan is asked from the
+    // mission's own waypoints, which needs no revision, and its answer is the new base.
+    let mut resync = false;
     let mut last_plan = String::from("no plan yet");
     let mut step = 0_u64;
     let mut tick = tokio::time::interval(Duration::from_secs_f64(STEP_S));
@@ -719,6 +723,16 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                 {
                     o.remove("aircraft");
                 }
+                if resync && let Some(o) = body.as_object_mut() {
+                    // Without a base revision `current_index` is a mission index: the
+                    // mission waypoint flown toward.
+                    o.remove("base_revision");
+                    let next = stack.items[stack.current.min(stack.items.len())..]
+                        .iter()
+                        .find_map(|i| i.mission_index)
+                        .unwrap_or(total_wp);
+                    o.insert("current_index".into(), json!(next));
+                }
                 let (client, url, tx, times) = (
                     client.clone(),
                     format!("{base}/api/v1/missions/{id}/plan"),
@@ -740,6 +754,7 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
             match answer {
                 Ok(plan) if plan.revision > revision => {
                     revision = plan.revision;
+                    resync = false;
                     last_plan = format!(
                         "plan revision {} ({}, {:.0} ms, {} avoid waypoints)",
                         plan.revision, plan.outcome, plan.compute_ms, plan.added
@@ -754,6 +769,7 @@ pub async fn fly(base: &str, p: &FlightParams) -> Result<FlightSummary, String> 
                 Err(e) => {
                     failed.count(format!("plan {}", e.reason));
                     last_plan = format!("plan failed: {}", e.detail);
+                    resync |= e.stale_base();
                 }
             }
         }
@@ -887,6 +903,13 @@ struct PlanFailure {
 }
 
 impl PlanFailure {
+    /// The server refused the base revision: a newer one exists (409), or the one named
+    /// is gone (a 4xx naming `base_revision`).
+    fn stale_base(&self) -> bool {
+        self.reason == "409"
+            || (self.reason.starts_with('4') && self.detail.contains("base_revision"))
+    }
+
     fn client(e: &reqwest::Error) -> Self {
         Self {
             reason: error_kind(e).to_string(),

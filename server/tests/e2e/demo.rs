@@ -86,3 +86,94 @@ fn a_bad_demo_flag_is_refused_naming_it() {
         assert!(stderr.contains(names), "{args:?}: {stderr}");
     }
 }
+
+/// The latest plan revision of mission `id`, read without planning: a base revision that
+/// cannot exist is refused naming the latest.
+async fn latest_revision(app: &crate::support::App, id: &str) -> i64 {
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/plan"),
+            &serde_json::json!({"base_revision": 1_000_000_000, "current_index": 0}),
+        )
+        .await;
+    assert!(r.status().is_client_error(), "{}", r.status());
+    let detail = r.json::<serde_json::Value>().await.unwrap()["detail"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let latest = detail
+        .split("(latest is ")
+        .nth(1)
+        .and_then(|s| s.trim_end_matches(')').parse().ok());
+    latest.unwrap_or_else(|| panic!("no latest revision in {detail:?}"))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_demo_whose_base_revision_went_stale_plans_on_from_the_mission() {
+    // Another client plans once (as a plan answered after the demo gave up on it, or a
+    // server restart between a plan and its answer, would leave things): the demo's next
+    // plan names a base revision older than the latest and is refused with 409. It must
+    // plan on from the mission's own waypoints and take up the new revisions; before, it
+    // sent its stale revision for ever (the operator page's browser test, once in CI: no
+    // plan within 20 s after a restart).
+    let app = crate::support::App::spawn(crate::support::Db::Sqlite)
+        .await
+        .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (mut demo, mut out) = crate::support::spawn_jink(
+        &[
+            "demo",
+            "--server",
+            &app.base,
+            "--seed",
+            "3",
+            "--duration",
+            "60",
+            "--obstacles",
+            "4",
+        ],
+        dir.path(),
+        "demo.log",
+    );
+    let id = out
+        .find_map(|l| {
+            l.strip_prefix("jink demo: the live page is ")
+                .map(|u| u.rsplit('/').next().unwrap().to_string())
+        })
+        .expect("the demo prints the page's URL");
+    let wait_past = |floor: i64, what: &'static str| {
+        let (app, id) = (&app, id.clone());
+        async move {
+            let end = std::time::Instant::now() + std::time::Duration::from_secs(20);
+            loop {
+                let latest = latest_revision(app, &id).await;
+                if latest > floor {
+                    return latest;
+                }
+                assert!(
+                    std::time::Instant::now() < end,
+                    "{what}: the latest revision stayed {latest}"
+                );
+                tokio::time::sleep(std::time::Duration::from_millis(200)).await;
+            }
+        }
+    };
+    let before = wait_past(1, "the demo plans").await;
+    // The other client: a plan with no base revision.
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/plan"),
+            &serde_json::json!({"current_index": 0, "deadline_ms": 200}),
+        )
+        .await;
+    assert_eq!(r.status(), 201, "a plan is created");
+    let ours = r.json::<serde_json::Value>().await.unwrap()["revision"]
+        .as_i64()
+        .unwrap();
+    assert!(ours > before, "{ours} after {before}");
+    // The demo's base is now stale; it plans on.
+    let after = wait_past(ours + 1, "the demo plans on after its base went stale").await;
+    assert!(after >= ours + 2, "{after}");
+    let _ = demo.kill();
+    let _ = demo.wait();
+}
