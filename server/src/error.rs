@@ -24,6 +24,17 @@ pub enum ApiError {
     /// The request conflicts with the current state (409).
     #[error("{0}")]
     Conflict(String),
+    /// A plan named a base revision older than the mission's latest (409). The problem
+    /// document carries the latest as `latest_revision`, so a client can replan from it
+    /// without parsing the detail.
+    #[error(
+        "base_revision {base_revision} is older than the latest revision {latest}: plan from revision {latest}"
+    )]
+    StaleBase { base_revision: i64, latest: i64 },
+    /// A plan named a base revision that does not exist (422, pointer `/base_revision`);
+    /// the problem document carries the latest as `latest_revision`.
+    #[error("revision {base_revision} does not exist (latest is {latest})")]
+    NoSuchBase { base_revision: i64, latest: i64 },
     /// The body's media type is not accepted here (415).
     #[error("{0}")]
     UnsupportedMediaType(String),
@@ -95,7 +106,8 @@ impl ApiError {
             Self::Wire(WireError::Validation(_)) => StatusCode::UNPROCESSABLE_ENTITY,
             Self::Wire(WireError::BadRequest { .. }) => StatusCode::BAD_REQUEST,
             Self::NotFound { .. } => StatusCode::NOT_FOUND,
-            Self::Conflict(_) => StatusCode::CONFLICT,
+            Self::Conflict(_) | Self::StaleBase { .. } => StatusCode::CONFLICT,
+            Self::NoSuchBase { .. } => StatusCode::UNPROCESSABLE_ENTITY,
             Self::UnsupportedMediaType(_) => StatusCode::UNSUPPORTED_MEDIA_TYPE,
             Self::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
             Self::Route { status, .. } => *status,
@@ -110,10 +122,14 @@ impl ApiError {
 
     fn kind(&self) -> (&'static str, &'static str) {
         match self {
-            Self::Wire(WireError::Validation(_)) => ("validation", "Invalid request content"),
+            Self::Wire(WireError::Validation(_)) | Self::NoSuchBase { .. } => {
+                ("validation", "Invalid request content")
+            }
             Self::Wire(WireError::BadRequest { .. }) => ("bad-request", "Malformed request"),
             Self::NotFound { .. } => ("not-found", "Resource not found"),
-            Self::Conflict(_) => ("conflict", "Conflict with the current state"),
+            Self::Conflict(_) | Self::StaleBase { .. } => {
+                ("conflict", "Conflict with the current state")
+            }
             Self::UnsupportedMediaType(_) => ("unsupported-media-type", "Unsupported media type"),
             Self::PayloadTooLarge(_) => ("payload-too-large", "Request body too large"),
             Self::Route { status, .. } if *status == StatusCode::METHOD_NOT_ALLOWED => {
@@ -153,7 +169,15 @@ impl ApiError {
                 self.to_string(),
                 vec![FieldError::new(pointer.clone(), self.to_string())],
             ),
+            Self::NoSuchBase { .. } => (
+                format!("/base_revision: {self}"),
+                vec![FieldError::new("/base_revision", self.to_string())],
+            ),
             other => (other.to_string(), vec![]),
+        };
+        let latest_revision = match self {
+            Self::StaleBase { latest, .. } | Self::NoSuchBase { latest, .. } => Some(*latest),
+            _ => None,
         };
         Problem {
             type_: format!("urn:jink:problem:{slug}"),
@@ -161,6 +185,7 @@ impl ApiError {
             status: status.as_u16(),
             detail,
             errors,
+            latest_revision,
         }
     }
 }
@@ -181,6 +206,12 @@ pub struct Problem {
     /// The invalid fields (validation and parse errors), each with a JSON pointer.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub errors: Vec<FieldError>,
+    /// The mission's latest plan revision, when a plan's `base_revision` was refused
+    /// (409: older than the latest; 422: no such revision). Replan with this as
+    /// `base_revision`, or without one from the mission's waypoints.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    #[schema(minimum = 0)]
+    pub latest_revision: Option<i64>,
 }
 
 /// The media type of problem documents.
@@ -252,6 +283,35 @@ mod tests {
         assert_eq!(p.type_, "urn:jink:problem:validation");
         assert!(p.detail.starts_with("/waypoints/1/lat"));
         assert_eq!(p.errors.len(), 2);
+    }
+
+    #[test]
+    fn a_refused_base_revision_names_the_latest_revision() {
+        let stale = ApiError::StaleBase {
+            base_revision: 2,
+            latest: 5,
+        };
+        let p = stale.problem();
+        assert_eq!((p.status, p.type_.as_str()), (409, "urn:jink:problem:conflict"));
+        assert_eq!(p.latest_revision, Some(5));
+        assert!(p.errors.is_empty());
+        let v = serde_json::to_value(&p).unwrap();
+        assert_eq!(v["latest_revision"], 5);
+
+        let gone = ApiError::NoSuchBase {
+            base_revision: 9,
+            latest: 5,
+        };
+        let p = gone.problem();
+        assert_eq!((p.status, p.type_.as_str()), (422, "urn:jink:problem:validation"));
+        assert_eq!(p.latest_revision, Some(5));
+        assert_eq!(p.errors.len(), 1);
+        assert_eq!(p.errors[0].pointer, "/base_revision");
+        assert_eq!(p.detail, "/base_revision: revision 9 does not exist (latest is 5)");
+
+        // Other problems do not carry the member at all.
+        let v = serde_json::to_value(ApiError::Conflict("x".into()).problem()).unwrap();
+        assert!(v.get("latest_revision").is_none(), "{v}");
     }
 
     #[test]

@@ -308,7 +308,7 @@ pub struct PlanBody {
     responses(
         (status = 201, description = "Planned and stored; `Location` names the plan", body = PlanOut,
             headers(("Location" = String, description = "URL of the stored plan"))),
-        (status = 409, description = "`base_revision` is older than the latest revision", body = Problem, content_type = "application/problem+json"),
+        (status = 409, description = "`base_revision` is older than the latest revision; `latest_revision` names the latest", body = Problem, content_type = "application/problem+json"),
     ))]
 async fn create_plan(
     State(state): State<AppState>,
@@ -329,15 +329,16 @@ async fn create_plan(
     timing.lap("read");
     let base_revision = body.base_revision.unwrap_or(0);
     if base_revision < 0 || base_revision > latest {
-        return Err(ApiError::field(
-            "/base_revision",
-            format!("revision {base_revision} does not exist (latest is {latest})"),
-        ));
+        return Err(ApiError::NoSuchBase {
+            base_revision,
+            latest,
+        });
     }
     if body.base_revision.is_some() && base_revision < latest {
-        return Err(ApiError::Conflict(format!(
-            "base_revision {base_revision} is older than the latest revision {latest}: plan from revision {latest}"
-        )));
+        return Err(ApiError::StaleBase {
+            base_revision,
+            latest,
+        });
     }
     // The base revision's stack, current index and pursuit of its next fixed item (the
     // item's index in that stack and since when it has been the target).
@@ -350,7 +351,10 @@ async fn create_plan(
             .store
             .get_plan_by_revision(&id, base_revision)
             .await?
-            .ok_or_else(|| ApiError::field("/base_revision", "no such revision"))?;
+            .ok_or(ApiError::NoSuchBase {
+                base_revision,
+                latest,
+            })?;
         let base = stored_revision(&row)?;
         base_shown_bank = base.inputs.shown_bank_deg;
         base_watch = base.inputs.watch;

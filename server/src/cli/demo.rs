@@ -900,20 +900,23 @@ fn error_kind(e: &reqwest::Error) -> &'static str {
 struct PlanFailure {
     reason: String,
     detail: String,
+    /// The problem document's `latest_revision`: the server refused the base revision
+    /// and named the latest.
+    latest_revision: Option<i64>,
 }
 
 impl PlanFailure {
     /// The server refused the base revision: a newer one exists (409), or the one named
-    /// is gone (a 4xx naming `base_revision`).
+    /// does not (422); either way the problem document names the latest revision.
     fn stale_base(&self) -> bool {
-        self.reason == "409"
-            || (self.reason.starts_with('4') && self.detail.contains("base_revision"))
+        self.reason == "409" || self.latest_revision.is_some()
     }
 
     fn client(e: &reqwest::Error) -> Self {
         Self {
             reason: error_kind(e).to_string(),
             detail: e.to_string(),
+            latest_revision: None,
         }
     }
 }
@@ -931,9 +934,14 @@ async fn request_plan(
         .map_err(|e| PlanFailure::client(&e))?;
     let status = r.status();
     if !status.is_success() {
+        let text = r.text().await.unwrap_or_default();
+        let latest_revision = serde_json::from_str::<Value>(&text)
+            .ok()
+            .and_then(|p| p.get("latest_revision").and_then(Value::as_i64));
         return Err(PlanFailure {
             reason: status.as_u16().to_string(),
-            detail: format!("{status}: {}", r.text().await.unwrap_or_default()),
+            detail: format!("{status}: {text}"),
+            latest_revision,
         });
     }
     r.json::<PlanOut>()
@@ -947,6 +955,20 @@ mod tests {
 
     fn webster() -> Mission {
         wire::domain::read_mission_text(MISSION_JSON, "demo").expect("the embedded fixture")
+    }
+
+    #[test]
+    fn a_refused_base_revision_is_read_from_the_problem_document() {
+        let failure = |reason: &str, latest_revision| PlanFailure {
+            reason: reason.into(),
+            detail: String::new(),
+            latest_revision,
+        };
+        assert!(failure("409", Some(4)).stale_base());
+        assert!(failure("422", Some(4)).stale_base());
+        // Another invalid field, or an overloaded service: the base revision stands.
+        assert!(!failure("422", None).stale_base());
+        assert!(!failure("503", None).stale_base());
     }
 
     #[test]

@@ -88,7 +88,7 @@ fn a_bad_demo_flag_is_refused_naming_it() {
 }
 
 /// The latest plan revision of mission `id`, read without planning: a base revision that
-/// cannot exist is refused naming the latest.
+/// cannot exist is refused (422) with the latest in the problem's `latest_revision`.
 async fn latest_revision(app: &crate::support::App, id: &str) -> i64 {
     let r = app
         .post_json(
@@ -96,16 +96,11 @@ async fn latest_revision(app: &crate::support::App, id: &str) -> i64 {
             &serde_json::json!({"base_revision": 1_000_000_000, "current_index": 0}),
         )
         .await;
-    assert!(r.status().is_client_error(), "{}", r.status());
-    let detail = r.json::<serde_json::Value>().await.unwrap()["detail"]
-        .as_str()
-        .unwrap()
-        .to_string();
-    let latest = detail
-        .split("(latest is ")
-        .nth(1)
-        .and_then(|s| s.trim_end_matches(')').parse().ok());
-    latest.unwrap_or_else(|| panic!("no latest revision in {detail:?}"))
+    assert_eq!(r.status(), 422);
+    let p = r.json::<serde_json::Value>().await.unwrap();
+    p["latest_revision"]
+        .as_i64()
+        .unwrap_or_else(|| panic!("no latest revision in {p}"))
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

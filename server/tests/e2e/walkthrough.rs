@@ -141,4 +141,17 @@ async fn the_readme_walk_through_does_what_it_says(app: App) {
         p["detail"],
         "base_revision 0 is older than the latest revision 1: plan from revision 1"
     );
+    // The latest revision is a member of its own, for clients to replan from.
+    assert_eq!(p["latest_revision"], 1);
+    // A revision that does not exist: 422 naming the field, and the latest too.
+    let r = app
+        .post_json(
+            &format!("/api/v1/missions/{id}/plan"),
+            &json!({"base_revision": 7}),
+        )
+        .await;
+    assert_eq!(r.status(), 422);
+    let p: Value = r.json().await.unwrap();
+    assert_eq!(p["errors"][0]["pointer"], "/base_revision");
+    assert_eq!(p["latest_revision"], 1);
 }
