@@ -292,7 +292,10 @@ mod tests {
             latest: 5,
         };
         let p = stale.problem();
-        assert_eq!((p.status, p.type_.as_str()), (409, "urn:jink:problem:conflict"));
+        assert_eq!(
+            (p.status, p.type_.as_str()),
+            (409, "urn:jink:problem:conflict")
+        );
         assert_eq!(p.latest_revision, Some(5));
         assert!(p.errors.is_empty());
         let v = serde_json::to_value(&p).unwrap();
@@ -303,11 +306,17 @@ mod tests {
             latest: 5,
         };
         let p = gone.problem();
-        assert_eq!((p.status, p.type_.as_str()), (422, "urn:jink:problem:validation"));
+        assert_eq!(
+            (p.status, p.type_.as_str()),
+            (422, "urn:jink:problem:validation")
+        );
         assert_eq!(p.latest_revision, Some(5));
         assert_eq!(p.errors.len(), 1);
         assert_eq!(p.errors[0].pointer, "/base_revision");
-        assert_eq!(p.detail, "/base_revision: revision 9 does not exist (latest is 5)");
+        assert_eq!(
+            p.detail,
+            "/base_revision: revision 9 does not exist (latest is 5)"
+        );
 
         // Other problems do not carry the member at all.
         let v = serde_json::to_value(ApiError::Conflict("x".into()).problem()).unwrap();
