@@ -35,6 +35,7 @@
 
 use predictor::{NoRisk, ObstacleSummary, Predictor, RiskField, RiskMap, RiskMapConfig, Stage};
 
+use crate::geometry::dist;
 use crate::mission::{Aircraft, Mission};
 use crate::plan::{AircraftState, Plan, PlanError, PlanParams, PlanRequest, Strategy, plan_until};
 use crate::revisit::{with_captured_skipped, with_revisit};
@@ -272,6 +273,24 @@ pub fn live_map(
     Ok(Some(LiveMap { t0_s, ids, map }))
 }
 
+/// The distance from `p` to the edge of the nearest obstacle faster than `speed_mps` (its
+/// estimated speed) that can reach altitudes `alt_m` ([`reaches_altitudes`]), metres
+/// (negative inside it); `None` when there is none ([`PlanParams::fast_obstacle_m`]).
+pub fn nearest_fast_obstacle_m(
+    obstacles: &[ObstacleSummary],
+    speed_mps: f64,
+    p: crate::geometry::Point,
+    alt_m: [f64; 2],
+    buffer_m: f64,
+) -> Option<f64> {
+    obstacles
+        .iter()
+        .filter(|o| o.estimates.speed_mps > speed_mps)
+        .filter(|o| reaches_altitudes(o, alt_m[0], alt_m[1], buffer_m))
+        .map(|o| dist(o.estimates.position_m, p) - o.last_observation.radius_m)
+        .reduce(f64::min)
+}
+
 /// Whether obstacle `o` can come within its radius plus `buffer_m` of altitudes
 /// `[lo_m, hi_m]` (see the module docs).
 pub fn reaches_altitudes(o: &ObstacleSummary, lo_m: f64, hi_m: f64, buffer_m: f64) -> bool {
@@ -444,6 +463,16 @@ pub fn replan(
     };
     let mut params = cfg.plan;
     params.strategy = r.strategy;
+    // PlanParams::chase_escape_m reads it.
+    params.fast_obstacle_m = banded.and_then(|(_, obstacles)| {
+        nearest_fast_obstacle_m(
+            obstacles,
+            r.aircraft.speed_mps,
+            r.state.p_m,
+            [lo, hi],
+            buffer,
+        )
+    });
     // A waypoint captured on the way is skipped: the next one has only now become the
     // target.
     let skipped = !r.revisit && rewritten.is_some();

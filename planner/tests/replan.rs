@@ -668,3 +668,55 @@ fn an_obstacle_faster_than_the_aircraft_keeps_the_longer_near_window_of_its_own(
     }
     assert!(met >= 5 && decided >= 1, "{met} met, {decided} decided");
 }
+
+#[test]
+fn the_nearest_obstacle_faster_than_the_aircraft_is_measured_from_its_edge() {
+    // Three spheres of 30 m watched for 10 s, flying east, at t = 10 s over x = 0: a fast
+    // one (25 m/s) 300 m north at the aircraft's altitude, a slow one (10 m/s) 100 m north,
+    // and a fast one 200 m north but 300 m higher. For a 20 m/s aircraft at the origin
+    // flying at 100 m only the first counts: its edge is 270 m away
+    // (PlanParams::fast_obstacle_m, which PlanParams::chase_escape_m reads).
+    let mut p = Predictor::new(PredictorConfig::default());
+    for (id, speed, north, alt) in [
+        ("fast", 25.0, 300.0, 100.0),
+        ("slow", 10.0, 100.0, 100.0),
+        ("high", 25.0, 200.0, 400.0),
+    ] {
+        for k in 0..=50 {
+            let t = 0.2 * f64::from(k);
+            p.observe(
+                id,
+                Observation {
+                    t_s: t,
+                    p_m: [speed * (t - 10.0), north],
+                    alt_m: alt,
+                    radius_m: 30.0,
+                },
+            );
+        }
+    }
+    let obstacles: Vec<_> = p.obstacles().collect();
+    let near = |speed: f64, alt: [f64; 2]| {
+        planner::replan::nearest_fast_obstacle_m(&obstacles, speed, [0.0, 0.0], alt, 5.0)
+    };
+    let close = |d: Option<f64>, want: f64| d.is_some_and(|d| (d - want).abs() < 2.0);
+    assert!(
+        close(near(20.0, [100.0, 100.0]), 270.0),
+        "{:?}",
+        near(20.0, [100.0, 100.0])
+    );
+    // A route that climbs to 400 m reaches the high one too.
+    assert!(
+        close(near(20.0, [100.0, 400.0]), 170.0),
+        "{:?}",
+        near(20.0, [100.0, 400.0])
+    );
+    // For a 5 m/s aircraft the slow one is faster, and nearest.
+    assert!(
+        close(near(5.0, [100.0, 100.0]), 70.0),
+        "{:?}",
+        near(5.0, [100.0, 100.0])
+    );
+    // For a 30 m/s aircraft none is.
+    assert_eq!(near(30.0, [100.0, 400.0]), None);
+}

@@ -218,6 +218,24 @@ pub struct PlanParams {
     /// its escapes beginning 5 s before the hit) was clean, but over the default suite
     /// (2,794 runs) sphere hits were 6 against 4 and Webster flights 3.3 s a run longer.
     pub early_danger_risk: f64,
+    /// The escape manoeuvres of [`PlanParams::danger_risk`] are also tried when the best
+    /// route is not verified clear and a moving obstacle faster than the aircraft has its
+    /// edge within this many metres of it ([`PlanParams::fast_obstacle_m`]), though the
+    /// near window is clear: such an obstacle cannot be outrun, so the way out of its lane
+    /// is sideways and early, which the detours toward the next waypoint do not offer
+    /// (issue 10: the hits left at 14 m/s were spheres of 17-20 m/s that the aircraft
+    /// fled along their own track). Ranked as any route (out of danger a fly-zone exit
+    /// still loses); not once the next waypoint is overdue, as for
+    /// [`PlanParams::early_danger_risk`]. 0: off. Default 250 (2026-12-07; paired by seed
+    /// with it off over 400 fresh Webster Field runs with mixed spheres, 14 and 18 m/s:
+    /// sphere hits 9 -> 3, flights 2.2 s a run longer, time out of the fly zone 1358 ->
+    /// 1013 s; README, "Now: escapes when a faster obstacle is near").
+    pub chase_escape_m: f64,
+    /// Distance from the aircraft to the edge of the nearest moving obstacle faster than
+    /// the aircraft (its estimated speed above the aircraft's cruise speed) whose
+    /// altitudes the route reaches, metres: a hint [`crate::replan`] sets per request from
+    /// the tracks it plans against; `None` when there is none.
+    pub fast_obstacle_m: Option<f64>,
     /// In danger, a stack in flight whose next item is an avoid point (a manoeuvre begun,
     /// not the mission's own route) is kept over a new route unless the new route's
     /// near-term peak risk is lower by more than this (or, near peaks within it, its near
@@ -279,6 +297,8 @@ impl Default for PlanParams {
             hold_overdue_max_s: 120.0,
             danger_risk: 0.12,
             early_danger_risk: 2.0,
+            chase_escape_m: 250.0,
+            fast_obstacle_m: None,
             danger_commit_risk: 0.15,
             danger_commit_exposure: 0.25,
             keep_marginal_factor: 0.0,
@@ -825,6 +845,9 @@ pub fn plan_until(
                 .any(|z| z.boundary_distance(s.p_m) <= escape_reach);
         if (best.near_peak_risk > p.danger_risk
             || (best.early_peak_risk > p.early_danger_risk && p.verify.delay_credit_s > 0.0)
+            || (p.chase_escape_m > 0.0
+                && p.fast_obstacle_m.is_some_and(|d| d <= p.chase_escape_m)
+                && p.verify.delay_credit_s > 0.0)
             || best.cylinder_hits > 0)
             && near_zone
             && !term.should_stop()
