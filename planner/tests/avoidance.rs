@@ -830,6 +830,40 @@ fn first_inside(route: &[Point], speed: f64, r: f64, at: impl Fn(f64) -> Point) 
     None
 }
 
+/// The corridor of the two tests below: 300 m wide, the aircraft flying east at 20 m/s in
+/// its middle toward a waypoint 3 km on.
+fn corridor_mission() -> Mission {
+    let mut mission = common::one_leg_mission([-1500.0, -150.0], [3500.0, 150.0]);
+    mission.waypoints = common::waypoints_at_100m(&[[-500.0, 0.0], [3000.0, 0.0]]);
+    mission
+}
+
+/// The search cut down so that no route but an escape turns back: no bisection, detour
+/// points within 60 degrees of the waypoint.
+fn escapes_only() -> PlanParams {
+    PlanParams {
+        bisection: planner::bisection::BisectionParams::default().max_depth(0),
+        detour: planner::detour::DetourParams {
+            max_bearing_deg: 60.0,
+            ..Default::default()
+        },
+        ..PlanParams::default()
+    }
+}
+
+/// When the aircraft, flying `items` from `current_index` at 20 m/s from `s`, first meets
+/// `wall`, judged by the wall's own positions, seconds from now.
+fn met_at(
+    s: &AircraftState,
+    items: &[StackItem],
+    current_index: usize,
+    wall: &Sweeper,
+) -> Option<f64> {
+    first_inside(&route(s, items, current_index), 20.0, wall.r_m, |t| {
+        wall.at(t)
+    })
+}
+
 #[test]
 fn a_likely_collision_just_beyond_the_near_window_is_turned_away_from() {
     // The aircraft flies east at 20 m/s along the middle of a corridor 300 m wide toward
@@ -841,8 +875,7 @@ fn a_likely_collision_just_beyond_the_near_window_is_turned_away_from() {
     // down (no bisection, detour points ahead only) so that no route but an escape turns
     // back: the scenario of a crowded field, where the detours that turn back meet other
     // spheres (Webster Field, mixed spheres, seed 405).
-    let mut mission = common::one_leg_mission([-1500.0, -150.0], [3500.0, 150.0]);
-    mission.waypoints = common::waypoints_at_100m(&[[-500.0, 0.0], [3000.0, 0.0]]);
+    let mission = corridor_mission();
     let stack = mission_stack(&mission);
     let wall = Sweeper {
         p0: [960.0, 0.0],
@@ -852,29 +885,15 @@ fn a_likely_collision_just_beyond_the_near_window_is_turned_away_from() {
     // The rule is off by default (measured over the default suite: README, "A likely
     // collision just beyond the near window"); on here at its former default, 0.5.
     let cut = PlanParams {
-        bisection: planner::bisection::BisectionParams::default().max_depth(0),
-        detour: planner::detour::DetourParams {
-            max_bearing_deg: 60.0,
-            ..Default::default()
-        },
         early_danger_risk: 0.5,
-        ..PlanParams::default()
+        ..escapes_only()
     };
     let req = PlanRequest {
         params: cut,
         ..static_request(&mission, &stack)
     };
-    let met = |p: &planner::Plan| {
-        first_inside(
-            &route(&req.state, &p.items, p.current_index),
-            20.0,
-            wall.r_m,
-            |t| wall.at(t),
-        )
-    };
-    let straight = first_inside(&route(&req.state, &stack, 1), 20.0, wall.r_m, |t| {
-        wall.at(t)
-    });
+    let met = |p: &planner::Plan| met_at(&req.state, &p.items, p.current_index, &wall);
+    let straight = met_at(&req.state, &stack, 1, &wall);
     assert!(
         straight.is_some_and(|t| (11.0..13.0).contains(&t)),
         "the scenario: met at {straight:?} s flying on"
@@ -937,8 +956,7 @@ fn a_faster_obstacle_near_the_aircraft_has_the_escapes_tried_with_the_chase_rule
     // than the aircraft is near (PlanParams::fast_obstacle_m, which replan sets from the
     // tracks), though the near window is clear; the search is cut down as above so that
     // nothing but an escape turns back.
-    let mut mission = common::one_leg_mission([-1500.0, -150.0], [3500.0, 150.0]);
-    mission.waypoints = common::waypoints_at_100m(&[[-500.0, 0.0], [3000.0, 0.0]]);
+    let mission = corridor_mission();
     let stack = mission_stack(&mission);
     let wall = Sweeper {
         p0: [1140.0, 0.0],
@@ -946,31 +964,17 @@ fn a_faster_obstacle_near_the_aircraft_has_the_escapes_tried_with_the_chase_rule
         r_m: 600.0,
     };
     let cut = PlanParams {
-        bisection: planner::bisection::BisectionParams::default().max_depth(0),
-        detour: planner::detour::DetourParams {
-            max_bearing_deg: 60.0,
-            ..Default::default()
-        },
         chase_escape_m: 250.0,
         // Its edge is 540 m ahead; the rule reads the hint, not the field.
         fast_obstacle_m: Some(240.0),
-        ..PlanParams::default()
+        ..escapes_only()
     };
     let req = PlanRequest {
         params: cut,
         ..static_request(&mission, &stack)
     };
-    let met = |p: &planner::Plan| {
-        first_inside(
-            &route(&req.state, &p.items, p.current_index),
-            20.0,
-            wall.r_m,
-            |t| wall.at(t),
-        )
-    };
-    let straight = first_inside(&route(&req.state, &stack, 1), 20.0, wall.r_m, |t| {
-        wall.at(t)
-    });
+    let met = |p: &planner::Plan| met_at(&req.state, &p.items, p.current_index, &wall);
+    let straight = met_at(&req.state, &stack, 1, &wall);
     assert!(
         straight.is_some_and(|t| (11.0..13.0).contains(&t)),
         "the scenario: met at {straight:?} s flying on"
