@@ -16,7 +16,8 @@
 //! - [`scoring`]: the judges' scoring (0.1 s interpolation over gaps up to 5 s, hits,
 //!   `(fraction not hit)^3`, 100 ft waypoints) plus clearance and boundary metrics;
 //! - [`report`], [`svg`], [`prediction`]: Markdown/JSON reports, SVG plots, and the
-//!   prediction report (NLL and 95% coverage per stage and behaviour).
+//!   prediction report (NLL and 95% coverage per stage and behaviour);
+//! - [`compare`]: two builds' reports paired by seed (`jink compare`).
 //!
 //! # Example
 //! ```
@@ -34,6 +35,7 @@
 
 pub mod aircraft;
 pub mod behaviour;
+pub mod compare;
 pub mod cpu;
 pub mod geometry;
 pub mod lidar;

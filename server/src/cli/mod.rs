@@ -5,6 +5,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod arenas;
+pub mod compare;
 pub mod demo;
 pub mod interop;
 pub mod openapi;
@@ -47,6 +48,12 @@ pub enum Command {
     /// The judges' interop server: `status` (what the upstream link sees) and `pull`
     /// (fetch the mission once and store it).
     Interop(interop::InteropArgs),
+    /// Compare two builds' `jink simulate` reports, runs paired by seed.
+    ///
+    /// One row per family and strategy: hits, waypoints, path ratio, mission time and team
+    /// score (with standard errors), runs within 10 m, time out of the zone, replan CPU;
+    /// then the seeds whose hits or waypoints changed.
+    Compare(compare::CompareArgs),
     // jink:subcommands -- add a variant here and its arm in `run` below
 }
 
@@ -62,6 +69,7 @@ pub fn run() -> ExitCode {
         Command::Demo(args) => demo::run(args),
         Command::Token(args) => token::run(args),
         Command::Interop(args) => interop::run(args),
+        Command::Compare(args) => compare::run(args),
         // jink:dispatch
     }
 }

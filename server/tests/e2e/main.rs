@@ -3,6 +3,7 @@
 
 mod support;
 
+mod compare;
 mod demo;
 mod durability;
 mod errors;
