@@ -481,6 +481,14 @@ pub struct GroupComparison {
     pub sphere_hits: BeforeAfter<usize>,
     /// Cylinders hit over the runs.
     pub cylinder_hits: BeforeAfter<usize>,
+    /// Runs with fewer hits (spheres and cylinders) after than before.
+    pub runs_fewer_hits: usize,
+    /// Runs with more hits after than before.
+    pub runs_more_hits: usize,
+    /// The two-sided sign test of those two counts ([`sign_test_p`]): how often a split at
+    /// least this uneven comes by chance if the change made no difference to hits.
+    /// `None` when no run's hits changed.
+    pub hits_sign_test_p: Option<f64>,
     /// Waypoints captured over the runs.
     pub waypoints_captured: BeforeAfter<usize>,
     /// Waypoints over the runs.
@@ -688,12 +696,24 @@ fn compare_group(pairs: &[Pair<'_>], hit_cost_s: f64) -> GroupComparison {
     let diffs = |f: &dyn Fn(&RunFigures) -> f64| -> Vec<f64> {
         pairs.iter().map(|p| f(p.after) - f(p.before)).collect()
     };
+    let hits = |r: &RunFigures| r.spheres_hit + r.cylinders_hit;
+    let runs_fewer_hits = pairs
+        .iter()
+        .filter(|p| hits(p.after) < hits(p.before))
+        .count();
+    let runs_more_hits = pairs
+        .iter()
+        .filter(|p| hits(p.after) > hits(p.before))
+        .count();
     GroupComparison {
         family: pairs[0].key.family,
         strategy: pairs[0].key.strategy,
         runs: pairs.len(),
         sphere_hits: sum(|r| r.spheres_hit),
         cylinder_hits: sum(|r| r.cylinders_hit),
+        runs_fewer_hits,
+        runs_more_hits,
+        hits_sign_test_p: sign_test_p(runs_fewer_hits, runs_more_hits),
         waypoints_captured: sum(|r| r.waypoints_captured),
         waypoints: sum(|r| r.waypoints),
         path_ratio_runs: per_side(pairs, |rs| ratios(rs).len()),
@@ -715,6 +735,27 @@ fn compare_group(pairs: &[Pair<'_>], hit_cost_s: f64) -> GroupComparison {
             median(&v)
         }),
     }
+}
+
+/// The two-sided exact sign test: with `fewer` runs better and `more` worse (ties left
+/// out), the probability under a fair coin of a split at least as uneven, `min(1, 2 *
+/// P(X <= min(fewer, more)))` with `X ~ Binomial(fewer + more, 1/2)`. `None` for no
+/// changed run. Summed in log space, so it holds for any count.
+pub fn sign_test_p(fewer: usize, more: usize) -> Option<f64> {
+    let n = fewer + more;
+    if n == 0 {
+        return None;
+    }
+    let k = fewer.min(more);
+    // ln C(n, i) - n ln 2 for i = 0..=k, each from the one before.
+    let (mut ln_term, mut sum) = (-(n as f64) * std::f64::consts::LN_2, 0.0);
+    for i in 0..=k {
+        if i > 0 {
+            ln_term += ((n - i + 1) as f64).ln() - (i as f64).ln();
+        }
+        sum += ln_term.exp();
+    }
+    Some((2.0 * sum).min(1.0))
 }
 
 /// The mean (`None` for none).
@@ -793,7 +834,6 @@ fn path_ratio_cell(g: &GroupComparison) -> String {
     )
 }
 
-/// `captured -> captured of N`, or each side with its own count when they differ.
 /// "1 run", "2 runs".
 fn runs(n: usize) -> String {
     if n == 1 {
@@ -803,6 +843,7 @@ fn runs(n: usize) -> String {
     }
 }
 
+/// `captured -> captured of N`, or each side with its own count when they differ.
 fn waypoints_cell(captured: &BeforeAfter<usize>, of: &BeforeAfter<usize>) -> String {
     if of.before == of.after {
         format!("{} -> {} of {}", captured.before, captured.after, of.before)
@@ -867,6 +908,18 @@ pub fn render_markdown(c: &Comparison) -> String {
                 arrow(&h.min_clearance_m, |x| fixed(*x, 1)),
             );
         }
+    }
+    for g in c.groups.iter().filter(|g| g.hits_sign_test_p.is_some()) {
+        let _ = writeln!(
+            s,
+            "\n{} / {}: {} with fewer hits after, {} with more; two-sided sign test p = {} \
+             (how often a split at least this uneven comes by chance if hits did not change).",
+            g.family.name(),
+            g.strategy.name(),
+            runs(g.runs_fewer_hits),
+            runs(g.runs_more_hits),
+            fixed(g.hits_sign_test_p, 3),
+        );
     }
     if c.waypoints_changed.is_empty() {
         s.push_str("\nWaypoints captured changed: none.\n");
@@ -1068,6 +1121,40 @@ mod tests {
         assert_relative_eq!(g.team_score_s.mean, 40.0, epsilon = 1e-12);
         assert_relative_eq!(g.mission_time_s.mean, 10.0, epsilon = 1e-12);
         assert!(render_markdown(&c).contains("| +10.0 s (11.5) | +310.0 s (310.1) |"));
+    }
+
+    #[test]
+    fn the_sign_test_is_the_binomial_tail_counted_by_hand() {
+        // 8 runs cleared, 4 newly hit: 2 * (C(12,0) + C(12,1) + ... + C(12,4)) / 2^12
+        // = 2 * (1 + 12 + 66 + 220 + 495) / 4096 = 1588 / 4096.
+        assert_relative_eq!(sign_test_p(8, 4).unwrap(), 1588.0 / 4096.0, epsilon = 1e-12);
+        assert_relative_eq!(sign_test_p(4, 8).unwrap(), 1588.0 / 4096.0, epsilon = 1e-12);
+        // 5 against 0: 2 / 32; an even split is capped at 1; nothing changed: no test.
+        assert_relative_eq!(sign_test_p(5, 0).unwrap(), 0.0625, epsilon = 1e-12);
+        assert_eq!(sign_test_p(3, 3), Some(1.0));
+        assert_eq!(sign_test_p(0, 0), None);
+        // Large counts do not underflow: 0 against 2000 is tiny but positive, 1000 each 1.
+        let tiny = sign_test_p(0, 2000).unwrap();
+        assert!(tiny >= 0.0 && tiny < 1e-300, "{tiny}");
+        assert_relative_eq!(sign_test_p(1000, 1000).unwrap(), 1.0, epsilon = 1e-9);
+
+        // In a comparison: run 1 cleared, run 2 newly hit, run 3 hit on both sides (not
+        // counted), run 4 hit twice before and once after (fewer).
+        let before = [r(1).hits(1, 0), r(2), r(3).hits(1, 0), r(4).hits(1, 1)];
+        let after = [r(1), r(2).hits(0, 1), r(3).hits(1, 0), r(4).hits(1, 0)];
+        let c = compared(&before, &after);
+        let g = &c.groups[0];
+        assert_eq!((g.runs_fewer_hits, g.runs_more_hits), (2, 1));
+        // 2 against 1: 2 * (C(3,0) + C(3,1)) / 8 = 1.
+        assert_eq!(g.hits_sign_test_p, Some(1.0));
+        assert!(
+            render_markdown(&c).contains(
+                "2 runs with fewer hits after, 1 run with more; two-sided sign test p = 1.000"
+            ),
+            "{}",
+            render_markdown(&c)
+        );
+        assert_eq!(compared(&[r(1)], &[r(1)]).groups[0].hits_sign_test_p, None);
     }
 
     #[test]
