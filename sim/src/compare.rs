@@ -1135,7 +1135,7 @@ mod tests {
         assert_eq!(sign_test_p(0, 0), None);
         // Large counts do not underflow: 0 against 2000 is tiny but positive, 1000 each 1.
         let tiny = sign_test_p(0, 2000).unwrap();
-        assert!(tiny >= 0.0 && tiny < 1e-300, "{tiny}");
+        assert!((0.0..1e-300).contains(&tiny), "{tiny}");
         assert_relative_eq!(sign_test_p(1000, 1000).unwrap(), 1.0, epsilon = 1e-9);
 
         // In a comparison: run 1 cleared, run 2 newly hit, run 3 hit on both sides (not
