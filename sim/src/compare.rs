@@ -553,6 +553,9 @@ pub struct WaypointChange {
 pub struct Comparison {
     /// Seconds a hit adds to a run's team score.
     pub hit_cost_s: f64,
+    /// The strategy paired on each side (command-line names) when one strategy is compared
+    /// with another ([`compare_strategies`]); `None`: each with itself.
+    pub strategies: Option<BeforeAfter<String>>,
     /// Runs on one side only, left out.
     pub unpaired: BeforeAfter<usize>,
     /// Configuration fields that change the flights and differ between the sides' first
@@ -617,8 +620,33 @@ pub fn compare(
     after: &[Report],
     hit_cost_s: f64,
 ) -> Result<Comparison, CompareError> {
-    let b = index_side(Side::Before, before)?;
-    let a = index_side(Side::After, after)?;
+    compare_strategies(before, after, hit_cost_s, None)
+}
+
+/// [`compare`], or with `strategies` (before, after) one strategy against another: only
+/// `before`'s runs of the first and `after`'s runs of the second, paired by family and
+/// seed (a strategy against `oracle`, say, from one report given as both sides). The rows
+/// and lists are then named by the strategy before, and [`Comparison::strategies`] says
+/// which two were paired.
+///
+/// # Errors
+/// As [`compare`].
+pub fn compare_strategies(
+    before: &[Report],
+    after: &[Report],
+    hit_cost_s: f64,
+    strategies: Option<(StrategyKind, StrategyKind)>,
+) -> Result<Comparison, CompareError> {
+    let mut b = index_side(Side::Before, before)?;
+    let mut a = index_side(Side::After, after)?;
+    if let Some((sb, sa)) = strategies {
+        b.retain(|k, _| k.strategy == sb);
+        a = a
+            .into_iter()
+            .filter(|(k, _)| k.strategy == sa)
+            .map(|(k, v)| (RunKey { strategy: sb, ..k }, v))
+            .collect();
+    }
     let pairs: Vec<Pair<'_>> = b
         .iter()
         .filter_map(|(key, &(before, _))| {
@@ -672,6 +700,10 @@ pub fn compare(
     };
     Ok(Comparison {
         hit_cost_s,
+        strategies: strategies.map(|(b, a)| BeforeAfter {
+            before: b.name().to_owned(),
+            after: a.name().to_owned(),
+        }),
         unpaired: BeforeAfter {
             before: b.len() - pairs.len(),
             after: a.len() - pairs.len(),
@@ -860,6 +892,13 @@ fn waypoints_cell(captured: &BeforeAfter<usize>, of: &BeforeAfter<usize>) -> Str
 /// Paths and warnings are not part of it (the caller reports those).
 pub fn render_markdown(c: &Comparison) -> String {
     let mut s = String::new();
+    if let Some(st) = &c.strategies {
+        let _ = writeln!(
+            s,
+            "Strategy `{}` before against `{}` after, paired by family and seed; rows are named by the strategy before.\n",
+            st.before, st.after
+        );
+    }
     s.push_str("| family | strategy | runs | sphere hits | cylinder hits | waypoints captured | path ratio mean / p50 | mission time, a run (se) | team score, a run (se) | runs within 10 m | out of zone, s over the runs | replan CPU p95, median of runs (ms) |\n");
     s.push_str("|---|---|---:|---|---|---|---|---:|---:|---|---|---|\n");
     for g in &c.groups {
@@ -1155,6 +1194,56 @@ mod tests {
             render_markdown(&c)
         );
         assert_eq!(compared(&[r(1)], &[r(1)]).groups[0].hits_sign_test_p, None);
+    }
+
+    #[test]
+    fn one_strategy_is_paired_with_another_by_seed_from_one_report() {
+        // One report flown with `mc-auto` and `oracle` on seeds 1-2, and `none` on seed 1.
+        let runs = [
+            r(1).time(300.0).hits(1, 0),
+            r(2).time(320.0),
+            r(1).strategy("oracle").time(280.0),
+            r(2).strategy("oracle").time(290.0),
+            r(1).strategy("none").time(500.0),
+        ];
+        let both = [report("both.json", &runs)];
+        let c = compare_strategies(
+            &both,
+            &both,
+            DEFAULT_HIT_COST_S,
+            Some((
+                StrategyKind::parse("mc-auto").unwrap(),
+                StrategyKind::Oracle,
+            )),
+        )
+        .unwrap();
+        assert_eq!(c.groups.len(), 1);
+        let g = &c.groups[0];
+        assert_eq!((g.runs, g.strategy.name()), (2, "mc-auto"));
+        // differences -20 and -30: mean -25, sd sqrt(50), se sqrt(50 / 2) = 5
+        assert_relative_eq!(g.mission_time_s.mean, -25.0, epsilon = 1e-12);
+        assert_relative_eq!(g.mission_time_s.se.unwrap(), 5.0, epsilon = 1e-12);
+        // team: -920 and -30
+        assert_relative_eq!(g.team_score_s.mean, -475.0, epsilon = 1e-12);
+        assert_eq!((g.runs_fewer_hits, g.runs_more_hits), (1, 0));
+        // the other strategies of each side are not "unpaired": they were not asked for
+        assert_eq!(
+            c.unpaired,
+            BeforeAfter {
+                before: 0,
+                after: 0
+            }
+        );
+        let md = render_markdown(&c);
+        assert!(
+            md.starts_with("Strategy `mc-auto` before against `oracle` after"),
+            "{md}"
+        );
+        // Without strategies, the same report against itself pairs each with itself.
+        let same = compare(&both, &both, DEFAULT_HIT_COST_S).unwrap();
+        assert_eq!(same.groups.len(), 3);
+        assert!(same.strategies.is_none());
+        assert_relative_eq!(same.groups[0].mission_time_s.mean, 0.0);
     }
 
     #[test]

@@ -11,9 +11,10 @@ use std::process::ExitCode;
 
 use clap::Args;
 use sim::compare::{
-    Comparison, DEFAULT_HIT_COST_S, Report, compare, config_differences_within, load_side,
-    render_json, render_markdown,
+    Comparison, DEFAULT_HIT_COST_S, Report, compare_strategies, config_differences_within,
+    load_side, render_json, render_markdown,
 };
+use sim::strategy::StrategyKind;
 
 /// Flags of `jink compare`.
 #[derive(Debug, Args)]
@@ -33,6 +34,12 @@ pub struct CompareArgs {
     /// Print the comparison as JSON (for scripts) instead of Markdown.
     #[arg(long)]
     pub json: bool,
+
+    /// Compare one strategy with another, `BEFORE,AFTER` (command-line names, e.g.
+    /// `mc-auto,oracle`): BEFORE's runs of the first against AFTER's runs of the second,
+    /// paired by family and seed. One report flown with both may be given as both sides.
+    #[arg(long, value_delimiter = ',', value_name = "BEFORE,AFTER")]
+    pub strategies: Option<Vec<String>>,
 }
 
 /// Runs the subcommand.
@@ -63,7 +70,9 @@ fn execute(args: &CompareArgs) -> Result<String, String> {
             eprintln!("jink compare: warning: {w}");
         }
     }
-    let c = compare(&before, &after, args.hit_cost_s).map_err(|e| e.to_string())?;
+    let strategies = strategy_pair(args.strategies.as_deref())?;
+    let c = compare_strategies(&before, &after, args.hit_cost_s, strategies)
+        .map_err(|e| e.to_string())?;
     for w in warnings(&c) {
         eprintln!("jink compare: warning: {w}");
     }
@@ -74,6 +83,25 @@ fn execute(args: &CompareArgs) -> Result<String, String> {
     } else {
         Ok(render_markdown(&c))
     }
+}
+
+/// `--strategies BEFORE,AFTER` as two strategies; `None` when not given.
+fn strategy_pair(names: Option<&[String]>) -> Result<Option<(StrategyKind, StrategyKind)>, String> {
+    let Some(names) = names else {
+        return Ok(None);
+    };
+    let [b, a] = names else {
+        return Err(format!(
+            "--strategies takes two names, BEFORE,AFTER (e.g. mc-auto,oracle), not {}",
+            names.join(",")
+        ));
+    };
+    let parse = |n: &str| {
+        StrategyKind::parse(n.trim()).ok_or_else(|| {
+            format!("--strategies: no strategy is named {n:?} (see jink simulate --help)")
+        })
+    };
+    Ok(Some((parse(b)?, parse(a)?)))
 }
 
 /// `N runs from K reports under PATH`.
@@ -152,6 +180,27 @@ mod tests {
         let a = parse(&["a", "b", "--hit-cost-s", "600", "--json"]).unwrap();
         assert_eq!((a.hit_cost_s, a.json), (600.0, true));
         assert!(parse(&["a"]).is_err());
+    }
+
+    #[test]
+    fn strategies_are_two_known_names() {
+        let a = parse(&["a", "b", "--strategies", "mc-auto,oracle"]).unwrap();
+        assert_eq!(
+            strategy_pair(a.strategies.as_deref()).unwrap(),
+            Some((
+                StrategyKind::parse("mc-auto").unwrap(),
+                StrategyKind::Oracle
+            ))
+        );
+        assert_eq!(strategy_pair(None).unwrap(), None);
+        for bad in ["mc-auto", "mc-auto,oracle,none"] {
+            let a = parse(&["a", "b", "--strategies", bad]).unwrap();
+            let e = strategy_pair(a.strategies.as_deref()).unwrap_err();
+            assert!(e.contains("two names"), "{e}");
+        }
+        let a = parse(&["a", "b", "--strategies", "mc-auto,orakel"]).unwrap();
+        let e = strategy_pair(a.strategies.as_deref()).unwrap_err();
+        assert!(e.contains("\"orakel\""), "{e}");
     }
 
     #[test]
