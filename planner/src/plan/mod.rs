@@ -227,9 +227,9 @@ pub struct PlanParams {
     /// fled along their own track). Ranked as any route (out of danger a fly-zone exit
     /// still loses); not once the next waypoint is overdue, as for
     /// [`PlanParams::early_danger_risk`]. 0: off. Default 250 (2026-12-07; paired by seed
-    /// with it off over 1,000 fresh Webster Field runs with mixed spheres, 14 and 18 m/s:
-    /// sphere hits 11 -> 7, flights 1.6 s a run longer (standard error 0.8), time out of
-    /// the fly zone 3072 -> 2328 s, a small sample; README, "Now: escapes when a faster
+    /// with it off over 1,400 fresh Webster Field runs with mixed spheres, 14 and 18 m/s:
+    /// sphere hits 14 -> 9, flights 2.2 s a run longer (standard error 0.7), time out of
+    /// the fly zone 4221 -> 3346 s, a small sample; README, "Now: escapes when a faster
     /// obstacle is near" and "The escapes for a faster obstacle, flown again").
     pub chase_escape_m: f64,
     /// Distance from the aircraft to the edge of the nearest moving obstacle faster than
