@@ -3,13 +3,14 @@
 //! processes): the table it prints is the golden file's, and what it cannot compare exits
 //! with code 2 naming the problem.
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use serde_json::Value;
 
 /// `jink compare ARGS`, the real binary.
-fn compare(args: &[&Path]) -> Output {
+fn compare<A: AsRef<OsStr>>(args: &[A]) -> Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
         .arg("compare")
         .args(args)
@@ -55,13 +56,14 @@ fn compare_prints_the_paired_table_of_the_fixture_reports() {
 
 #[test]
 fn compare_json_has_the_same_figures_for_scripts() {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
-        .arg("compare")
-        .arg(fixture("before/report.json"))
-        .arg(fixture("after"))
-        .args(["--json", "--hit-cost-s", "900"])
-        .output()
-        .unwrap();
+    let (before, after) = (fixture("before/report.json"), fixture("after"));
+    let out = compare(&[
+        before.as_os_str(),
+        after.as_os_str(),
+        "--json".as_ref(),
+        "--hit-cost-s".as_ref(),
+        "900".as_ref(),
+    ]);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     let golden: Value =
@@ -126,12 +128,12 @@ fn one_strategy_against_another_from_one_report() {
     // flies 23.0, 10.0 and 38.7 s longer (mean 23.9 s, standard error 8.3, read off the
     // report by hand) and clears all three runs `none` hit (1, 1 and 4 hits).
     let report = fixture("before/report.json");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
-        .arg("compare")
-        .args([&report, &report])
-        .args(["--strategies", "none,mc-auto"])
-        .output()
-        .unwrap();
+    let out = compare(&[
+        report.as_os_str(),
+        report.as_os_str(),
+        "--strategies".as_ref(),
+        "none,mc-auto".as_ref(),
+    ]);
     let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
     assert!(out.status.success(), "{stdout}\n{stderr}");
     assert!(
@@ -145,12 +147,12 @@ fn one_strategy_against_another_from_one_report() {
         "{stdout}"
     );
     // An unknown name exits 2 naming it.
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_jink"))
-        .arg("compare")
-        .args([&report, &report])
-        .args(["--strategies", "none,orakel"])
-        .output()
-        .unwrap();
+    let out = compare(&[
+        report.as_os_str(),
+        report.as_os_str(),
+        "--strategies".as_ref(),
+        "none,orakel".as_ref(),
+    ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(
         text(&out.stderr).contains("\"orakel\""),
