@@ -35,6 +35,7 @@ macro_rules! setters {
 
 pub mod bisection;
 pub mod cost;
+pub mod defer;
 pub mod detour;
 pub mod export;
 pub mod geometry;
@@ -54,6 +55,7 @@ pub mod termination;
 pub mod turn;
 pub mod verify;
 
+pub use defer::{Deferred, with_deferred};
 pub use insertion::{Circle, InsertOutcome, insert_waypoint};
 pub use mission::{Aircraft, Cylinder, FlyZone, Mission, Waypoint};
 pub use plan::{

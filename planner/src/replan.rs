@@ -27,6 +27,10 @@
 //!   ([`predictor::Stage::variability`]).
 //! - [`Replanned::dynamic`] says what dynamic risk the plan saw: each obstacle with its
 //!   stage, whether it is in the map and whether it passed the threat filter.
+//! - A waypoint the aircraft has pursued longer than [`PlanParams::defer_after_s`]
+//!   ([`Replan::target_pending_s`]) is put off to the end of the stack when another
+//!   mission waypoint follows it ([`crate::defer`], [`Replanned::deferred`]); not in a
+//!   plan that flies a missed waypoint again or skips a captured one.
 //! - Deterministic: same inputs, configuration and seed give the same plan bit for bit,
 //!   unless `term` stopped the search.
 //!
@@ -35,6 +39,7 @@
 
 use predictor::{NoRisk, ObstacleSummary, Predictor, RiskField, RiskMap, RiskMapConfig, Stage};
 
+use crate::defer::{Deferred, with_deferred};
 use crate::geometry::dist;
 use crate::mission::{Aircraft, Mission};
 use crate::plan::{AircraftState, Plan, PlanError, PlanParams, PlanRequest, Strategy, plan_until};
@@ -214,6 +219,10 @@ pub struct Replanned {
     pub plan: Plan,
     /// What dynamic risk it saw.
     pub dynamic: DynamicSeen,
+    /// The waypoint this plan put off to the end of the stack, waited for longer than
+    /// [`crate::PlanParams::defer_after_s`] ([`crate::defer`]); the plan's stack and diff
+    /// show the move.
+    pub deferred: Option<Deferred>,
 }
 
 /// A mission's live risk map and the obstacles in it.
@@ -357,13 +366,19 @@ pub fn replan(
     } else {
         r.stack
     };
+    let mut deferred = None;
     let rewritten = if r.revisit {
         with_revisit(given, r.current_index)
     } else if r.captured {
         next_fixed(given, r.current_index)
             .and_then(|j| with_captured_skipped(given, r.current_index, j))
     } else {
-        None
+        // A waypoint waited for too long is put off to the end (PlanParams::defer_after_s).
+        let pending = r.target_pending_s.unwrap_or(0.0);
+        with_deferred(given, r.current_index, pending, cfg.plan.defer_after_s).map(|(s, d)| {
+            deferred = Some(d);
+            s
+        })
     };
     let stack = rewritten.as_deref().unwrap_or(given);
     // The altitudes still to fly.
@@ -473,8 +488,8 @@ pub fn replan(
             buffer,
         )
     });
-    // A waypoint captured on the way is skipped: the next one has only now become the
-    // target.
+    // A waypoint captured on the way is skipped (or one waited for too long put off): the
+    // next one has only now become the target.
     let skipped = !r.revisit && rewritten.is_some();
     let pending = r
         .target_pending_s
@@ -505,5 +520,9 @@ pub fn replan(
     if rewritten.is_some() {
         plan.diff = diff(given, &plan.items);
     }
-    Ok(Replanned { plan, dynamic })
+    Ok(Replanned {
+        plan,
+        dynamic,
+        deferred,
+    })
 }

@@ -720,3 +720,86 @@ fn the_nearest_obstacle_faster_than_the_aircraft_is_measured_from_its_edge() {
     // For a 30 m/s aircraft none is.
     assert_eq!(near(30.0, [100.0, 400.0]), None);
 }
+
+#[test]
+fn a_waypoint_pursued_longer_than_four_minutes_is_put_off_to_the_end_of_the_stack() {
+    // Flying toward an avoid item before waypoint 0, pursued for `pending` seconds; waypoints
+    // 1 and 2 follow. Past PlanParams::defer_after_s (240 s) the plan flies 1 and 2 first
+    // and waypoint 0 last, without the avoid item that led to it.
+    let m = mission();
+    let (a, w0, w1, w2) = (
+        planner::StackItem::avoid([250.0, 250.0], 100.0),
+        planner::StackItem::mission(0, [500.0, 300.0], 100.0),
+        planner::StackItem::mission(1, [1000.0, 0.0], 100.0),
+        planner::StackItem::mission(2, [1500.0, -300.0], 100.0),
+    );
+    let stack = [a, w0, w1, w2];
+    // Strategy::None flies the stack as given, so the test sees the rewrite alone.
+    let plan_with = |stack: &[planner::StackItem], pending: Option<f64>, cfg: &ReplanConfig| {
+        let r = Replan {
+            current_index: 0,
+            strategy: Strategy::None,
+            target_pending_s: pending,
+            ..request(&m, stack, 5)
+        };
+        replan(&r, Dynamic::None, cfg, &Termination::none()).expect("plan")
+    };
+    let cfg = ReplanConfig::default();
+    assert_eq!(cfg.plan.defer_after_s, 240.0, "the default");
+
+    let waited = plan_with(&stack, Some(240.0), &cfg);
+    assert_eq!(waited.plan.items, stack, "not past the limit: kept");
+    assert_eq!(waited.deferred, None);
+
+    let put_off = plan_with(&stack, Some(241.0), &cfg);
+    assert_eq!(put_off.plan.items, vec![w1, w2, w0]);
+    assert_eq!(
+        put_off.deferred,
+        Some(planner::Deferred {
+            stack_index: 1,
+            mission_index: 0,
+            pending_s: 241.0
+        })
+    );
+    assert_eq!(put_off.plan.diff.first_changed, Some(0));
+    assert_eq!(
+        (
+            put_off.plan.diff.remove,
+            put_off.plan.diff.insert.as_slice()
+        ),
+        (4, &[w1, w2, w0][..])
+    );
+    // Waypoint 1 is charged nothing of waypoint 0's wait: the same plan as from that stack
+    // fresh.
+    let fresh = plan_with(&[w1, w2, w0], None, &cfg);
+    assert_eq!(put_off.plan.items, fresh.plan.items);
+    assert_eq!(put_off.plan.verification, fresh.plan.verification);
+
+    // Off at 0; and the last waypoint left is waited for however long.
+    let mut off = cfg.clone();
+    off.plan.defer_after_s = 0.0;
+    let kept = plan_with(&stack, Some(1e4), &off);
+    assert_eq!(
+        (kept.plan.items.as_slice(), kept.deferred),
+        (&stack[..], None)
+    );
+    let last = plan_with(&[a, w0], Some(1e4), &cfg);
+    assert_eq!(
+        (last.plan.items.as_slice(), last.deferred),
+        (&[a, w0][..], None)
+    );
+
+    // A waypoint captured on the way is skipped, not put off.
+    let r = Replan {
+        current_index: 0,
+        strategy: Strategy::None,
+        target_pending_s: Some(1e4),
+        captured: true,
+        ..request(&m, &stack, 5)
+    };
+    let skipped = replan(&r, Dynamic::None, &cfg, &Termination::none()).expect("plan");
+    assert_eq!(
+        (skipped.plan.items.as_slice(), skipped.deferred),
+        (&[w1, w2][..], None)
+    );
+}

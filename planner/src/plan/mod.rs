@@ -190,6 +190,16 @@ pub struct PlanParams {
     /// hold on: from just overdue up to this, not after. Default 120 (a wait of two minutes
     /// may be flown, not one that repeats for ever; 30 rescued nothing, 60 less than 120).
     pub hold_overdue_max_s: f64,
+    /// Put off the next waypoint once it has been the target longer than this, seconds:
+    /// [`crate::replan`] moves it (and the avoid items before it) to the end of the stack
+    /// and flies the rest of the mission first, when another mission waypoint follows it
+    /// ([`crate::defer`]). A waypoint an obstacle keeps covering was otherwise waited for
+    /// until the scenario's time limit, and every waypoint after it was lost (issue 10:
+    /// Webster Field with mixed spheres, seed 1284 at 18 m/s: 4 of 14 waypoints in 890 s;
+    /// seed 2754 at 14 m/s: 10 of 14 in 1127 s). Past the delay credit (60 s) and the
+    /// overdue holds (120 s more), so no flight that captures its waypoint within four
+    /// minutes changes. 0: never. Default 240.
+    pub defer_after_s: f64,
     /// Near-term peak risk above which the plan is in danger: when the best route's risk
     /// within [`VerifyParams::near_s`] stays above it after the detour net, escape
     /// manoeuvres are tried ([`crate::detour::escape_candidates`]), and routes are ranked
@@ -296,6 +306,7 @@ impl Default for PlanParams {
             hold: false,
             hold_overdue: true,
             hold_overdue_max_s: 120.0,
+            defer_after_s: 240.0,
             danger_risk: 0.12,
             early_danger_risk: 2.0,
             chase_escape_m: 250.0,

@@ -117,6 +117,10 @@ pub struct PlanInputs {
     /// ([`planner::Watch`]): not flown again by this plan, judged again at the next one with
     /// the newer telemetry.
     pub watch: Option<planner::Watch>,
+    /// Put off the next mission waypoint to the end of the stack once it has been the
+    /// target longer than this, seconds ([`planner::PlanParams::defer_after_s`]; 0:
+    /// never).
+    pub defer_after_s: f64,
 }
 
 /// The mission's own waypoints as a stack.
@@ -147,6 +151,9 @@ pub struct Computed {
     pub obstacles: Vec<PlanObstacle>,
     /// Warnings about the inputs.
     pub warnings: Vec<PlanWarning>,
+    /// The mission waypoint this plan put off to the end of the stack
+    /// ([`planner::Replanned::deferred`]).
+    pub deferred: Option<planner::Deferred>,
     /// The snapshot's batch number.
     pub observation_seq: i64,
     /// Time taken, ms.
@@ -256,6 +263,7 @@ pub fn compute(
     if let Some(p) = inputs.l1_period_s {
         cfg.plan.verify.l1_s = planner::verify::l1_seconds(p);
     }
+    cfg.plan.defer_after_s = inputs.defer_after_s;
     let r = planner::Replan {
         mission: &pm,
         aircraft: inputs.aircraft,
@@ -272,9 +280,9 @@ pub fn compute(
     if let Some(flag) = cancel {
         until = until.with_cancel(flag);
     }
-    let plan = planner::replan(&r, dynamic, &cfg, &until)
-        .map_err(|e| ApiError::field("", e.to_string()))?
-        .plan;
+    let replanned = planner::replan(&r, dynamic, &cfg, &until)
+        .map_err(|e| ApiError::field("", e.to_string()))?;
+    let (plan, deferred) = (replanned.plan, replanned.deferred);
     let geo = |it: &StackItem| {
         let (lat, lon) = match (it.kind, it.mission_index) {
             (ItemKind::Mission, Some(i)) if i < mission.content.waypoints.len() => (
@@ -324,6 +332,7 @@ pub fn compute(
         },
         obstacles: view.obstacles,
         warnings: view.warnings,
+        deferred,
         observation_seq: snap.seq,
         plan,
         compute_ms: started.elapsed().as_secs_f64() * 1e3,
@@ -434,6 +443,15 @@ fn warnings_of(inputs: &PlanInputs, c: &Computed) -> Vec<PlanWarning> {
             message: format!(
                 "mission waypoint {} (stack item {}) was passed {:.1} m away on the way, within the judges' 100 ft (30.48 m) less a margin, before the autopilot switched past it: the judges count it, so the plan skips it and any avoid items before it (\"skip_captured\": false turns this off)",
                 c.mission_index, c.stack_index, c.closest_m
+            ),
+        });
+    }
+    if let Some(d) = c.deferred {
+        w.push(PlanWarning {
+            code: "waypoint_deferred".into(),
+            message: format!(
+                "mission waypoint {} (stack item {}) has been the target for {:.0} s, longer than {:.0} s: the plan puts it off to the end of the stack, flies the waypoints after it first and tries it again last (\"defer_after_s\": 0 turns this off)",
+                d.mission_index, d.stack_index, d.pending_s, inputs.defer_after_s
             ),
         });
     }

@@ -86,6 +86,10 @@ pub struct InputsRecord {
     /// next plan (absent: none, as in plans stored before the watch).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub watch: Option<StoredWatch>,
+    /// Seconds the next waypoint was pursued before being put off to the end of the stack
+    /// (absent: never, as plans stored before the rule were planned).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub defer_after_s: Option<f64>,
 }
 
 /// The stored form of [`planner::Watch`].
@@ -223,6 +227,7 @@ impl InputsRecord {
                 since_s: w.since_s,
                 until_s: w.until_s,
             }),
+            defer_after_s: Some(inputs.defer_after_s),
         }
     }
 
@@ -291,6 +296,7 @@ impl InputsRecord {
                 since_s: w.since_s,
                 until_s: w.until_s,
             }),
+            defer_after_s: self.defer_after_s.unwrap_or(0.0),
         })
     }
 
@@ -469,6 +475,8 @@ mod tests {
             revisit: None,
             captured: None,
             watch: None,
+            // Absent from rows stored before the rule: never put off.
+            defer_after_s: 0.0,
         }
     }
 
@@ -561,6 +569,7 @@ mod tests {
                 since_s: 1_781_449_150.5,
                 until_s: 1_781_449_205.75,
             }),
+            defer_after_s: 300.0,
             ..expected(Observations::Through(9))
         };
         let text = InputsRecord::of(&inputs).to_json().unwrap();
@@ -586,6 +595,7 @@ mod tests {
             v["watch"],
             json!({"stack_index": 1, "since_s": 1_781_449_150.5, "until_s": 1_781_449_205.75})
         );
+        assert_eq!(v["defer_after_s"], json!(300.0));
         assert_eq!(stored_inputs(&row(&text)).unwrap(), inputs);
         let plain = InputsRecord::of(&expected(Observations::Through(9)))
             .to_json()

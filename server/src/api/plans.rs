@@ -32,6 +32,8 @@ pub use super::plan_types::*;
 
 /// Longest accepted `deadline_ms`.
 const MAX_DEADLINE_MS: u64 = 60_000;
+/// The longest wait `defer_after_s` accepts, seconds (a day).
+const MAX_DEFER_AFTER_S: f64 = 86_400.0;
 
 /// Planner to run.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, ToSchema)]
@@ -293,6 +295,14 @@ pub struct PlanBody {
     /// waypoint, goes on to the next item, and warns `waypoint_captured_on_the_way`. The
     /// last item of a stack is never skipped. `false`: never.
     pub skip_captured: Option<bool>,
+    /// Put off a waypoint that cannot be reached (default 240): once the next mission
+    /// waypoint has been the target for longer than this many seconds (the clock the
+    /// answer's `target_pending_s` shows, carried from the base revision), the plan moves
+    /// it with the avoid items before it to the end of the stack, flies the waypoints after
+    /// it first, and warns `waypoint_deferred`. The last mission waypoint left is never put
+    /// off. 0: never.
+    #[schema(minimum = 0, maximum = 86400)]
+    pub defer_after_s: Option<f64>,
 }
 
 /// Plan a revised waypoint stack.
@@ -426,6 +436,15 @@ async fn create_plan(
         return Err(ApiError::field(
             "/max_map_age_ms",
             format!("must be in [0, {MAX_DEADLINE_MS}]"),
+        ));
+    }
+    let defer_after_s = body
+        .defer_after_s
+        .unwrap_or(planner::PlanParams::default().defer_after_s);
+    if !(defer_after_s.is_finite() && (0.0..=MAX_DEFER_AFTER_S).contains(&defer_after_s)) {
+        return Err(ApiError::field(
+            "/defer_after_s",
+            format!("must be in [0, {MAX_DEFER_AFTER_S}] s (0: never)"),
         ));
     }
     let now = now_s();
@@ -568,6 +587,7 @@ async fn create_plan(
         revisit,
         captured,
         watch,
+        defer_after_s,
     };
     let (m2, in2) = (mission.clone(), inputs.clone());
     let cancel = CancelOnDrop::default();

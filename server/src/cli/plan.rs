@@ -238,6 +238,8 @@ pub fn run(args: PlanArgs) -> ExitCode {
         revisit: None,
         captured: None,
         watch: None,
+        // No clock offline (target_since_s is None): nothing is put off.
+        defer_after_s: planner::PlanParams::default().defer_after_s,
     };
     let computed = match compute(&m, &inputs, &snap, None) {
         Ok(c) => c,

@@ -23,6 +23,7 @@ both_stores!(
     a_pass_the_turn_ahead_may_capture_is_judged_again_at_the_next_plan,
     a_waypoint_captured_on_the_way_to_an_avoid_item_is_skipped,
     the_waypoint_flown_toward_captured_short_of_it_is_skipped,
+    a_waypoint_pursued_for_four_minutes_is_put_off_to_the_end_of_the_stack,
 );
 
 /// Time of obstacle "0"'s first observation, Unix seconds.
@@ -250,6 +251,15 @@ async fn a_stale_base_revision_is_refused_with_409(app: App) {
             )
             .await;
         assert_eq!(pointers(&problem(r, 422).await), vec![field.to_string()]);
+    }
+    for wait in [json!(-1.0), json!(86_401.0)] {
+        let r = app
+            .post_json(
+                &format!("/api/v1/missions/{id}/plan"),
+                &json!({"defer_after_s": wait}),
+            )
+            .await;
+        assert_eq!(pointers(&problem(r, 422).await), vec!["/defer_after_s"]);
     }
     // Telemetry speed wins over the plan's, so it has the same bound.
     let r = app
@@ -1342,4 +1352,88 @@ async fn the_waypoint_flown_toward_captured_short_of_it_is_skipped(app: App) {
         1,
         "{off}"
     );
+}
+
+/// The mission indices of a plan's stack from `from` on (`None` for avoid items).
+fn mission_indices(plan: &Value, from: usize) -> Vec<Option<u64>> {
+    plan["waypoints"].as_array().unwrap()[from..]
+        .iter()
+        .map(|w| w["mission_index"].as_u64())
+        .collect()
+}
+
+/// Whether a plan carries the warning `code`.
+fn warns(plan: &Value, code: &str) -> bool {
+    plan["warnings"]
+        .as_array()
+        .is_some_and(|w| w.iter().any(|w| w["code"] == code))
+}
+
+/// A waypoint the aircraft has flown toward for longer than `defer_after_s` (240 s by
+/// default) is put off: the plan moves it to the end of the stack, flies the waypoints
+/// after it first and warns `waypoint_deferred`; the next waypoint's clock starts again.
+/// `"defer_after_s": 0` keeps it, and the stored plan replays identically.
+async fn a_waypoint_pursued_for_four_minutes_is_put_off_to_the_end_of_the_stack(app: App) {
+    let id = webster_with_traffic(&app).await;
+    let telemetry_at = |t: f64| aircraft_at_waypoint_0(&app, &id, t);
+    // Revision 1 starts the clock of mission waypoint 1 (telemetry at T0 + 10).
+    let p1 = plan(&app, &id, json!({"seed": 1, "current_index": 1})).await;
+    let toward = next_mission_item(&p1, 1);
+    let flown = |p: &Value| mission_indices(p, toward);
+    assert_eq!(flown(&p1)[0], Some(1), "{p1}");
+    // 240 s on, still toward it: not longer than the limit, kept.
+    telemetry_at(T0 + 250.0).await;
+    let p2 = plan(
+        &app,
+        &id,
+        json!({"seed": 2, "base_revision": 1, "current_index": toward}),
+    )
+    .await;
+    assert_eq!(p2["target_pending_s"], 240.0, "{p2}");
+    assert!(!warns(&p2, "waypoint_deferred"), "{p2}");
+    let toward = next_mission_item(&p2, toward);
+    assert_eq!(p2["waypoints"][toward]["mission_index"], 1, "{p2}");
+    // 250 s: with the rule off it is still the waypoint flown toward ...
+    telemetry_at(T0 + 260.0).await;
+    let off = plan(
+        &app,
+        &id,
+        json!({"seed": 3, "base_revision": 2, "current_index": toward, "defer_after_s": 0}),
+    )
+    .await;
+    assert!(!warns(&off, "waypoint_deferred"), "{off}");
+    assert_eq!(
+        off["waypoints"][next_mission_item(&off, toward)]["mission_index"],
+        1
+    );
+    // ... and by default it is put off: waypoints 2-13 first, then 1, the items before
+    // the current index as they were.
+    let p4 = plan(
+        &app,
+        &id,
+        json!({"seed": 4, "base_revision": 3, "current_index": toward}),
+    )
+    .await;
+    assert_eq!(p4["target_pending_s"], 250.0, "{p4}");
+    assert!(warns(&p4, "waypoint_deferred"), "{p4}");
+    let missions: Vec<u64> = mission_indices(&p4, toward).into_iter().flatten().collect();
+    assert_eq!(missions, (2..14).chain([1]).collect::<Vec<u64>>(), "{p4}");
+    assert_eq!(
+        p4["waypoints"].as_array().unwrap()[..toward],
+        off["waypoints"].as_array().unwrap()[..toward]
+    );
+    assert_eq!(p4["diff"]["first_changed"], toward, "{p4}");
+    let plan_id = p4["plan_id"].as_str().unwrap();
+    let v = replay(&app, &id, plan_id).await;
+    assert_eq!(v["identical"], true, "{v}");
+    // The next waypoint's clock starts at that plan.
+    telemetry_at(T0 + 265.0).await;
+    let p5 = plan(
+        &app,
+        &id,
+        json!({"seed": 5, "base_revision": 4, "current_index": toward}),
+    )
+    .await;
+    assert_eq!(p5["target_pending_s"], 5.0, "{p5}");
+    assert!(!warns(&p5, "waypoint_deferred"), "{p5}");
 }

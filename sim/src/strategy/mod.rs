@@ -374,6 +374,12 @@ pub fn replan_command(
     match planner::replan(&r, dynamic, &cfg, &planner::Termination::none()) {
         Ok(p) => {
             if trace_plans() {
+                if let Some(d) = p.deferred {
+                    eprintln!(
+                        "deferred waypoint {} (stack item {}) at t={:.1} s, pursued {:.1} s",
+                        d.mission_index, d.stack_index, view.t_s, d.pending_s
+                    );
+                }
                 trace_plan(view, &r, &p.plan);
                 if let Some(read) = read {
                     trace_target(view, read, &p.plan);
