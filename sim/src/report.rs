@@ -7,9 +7,9 @@ use crate::suite::SuiteReport;
 /// The summary as a Markdown table (one line per family and strategy).
 pub fn markdown_table(r: &SuiteReport) -> String {
     let mut s = String::new();
-    s.push_str("| family | strategy | runs | sphere score | cylinder score | clean runs | sphere hits | cylinder hits | waypoints | path ratio mean / p50 | min clearance p50 (m) | wp added (reached / targeted) | route added / removed by replans (m a run) | out of zone (s) | replan p50 / p95 / max (ms) | replan CPU p95 / max (ms) | live map p50 / p95 (ms) | mission-min per core-s |\n");
+    s.push_str("| family | strategy | runs | sphere score | cylinder score | clean runs | sphere hits | cylinder hits | waypoints | waypoint score, in order | path ratio mean / p50 | min clearance p50 (m) | wp added (reached / targeted) | route added / removed by replans (m a run) | out of zone (s) | replan p50 / p95 / max (ms) | replan CPU p95 / max (ms) | live map p50 / p95 (ms) | mission-min per core-s |\n");
     s.push_str(
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for row in &r.summary {
         let tp = if row.cpu_s > 0.0 {
@@ -19,7 +19,7 @@ pub fn markdown_table(r: &SuiteReport) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.3} | {:.3} | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.2} / {:.2} | {:.1} | {:.1} / {:.1} | {:.0} / {:.0} | {:.2} | {:.2} / {:.2} / {:.1} | {:.2} / {:.1} | {:.1} / {:.1} | {:.1} |",
+            "| {} | {} | {} | {:.3} | {:.3} | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.1}% | {:.2} / {:.2} | {:.1} | {:.1} / {:.1} | {:.0} / {:.0} | {:.2} | {:.2} / {:.2} / {:.1} | {:.2} / {:.1} | {:.1} / {:.1} | {:.1} |",
             row.family.name(),
             row.strategy.name(),
             row.runs,
@@ -29,6 +29,7 @@ pub fn markdown_table(r: &SuiteReport) -> String {
             100.0 * row.sphere_hit_rate,
             100.0 * row.cylinder_hit_rate,
             100.0 * row.waypoint_rate,
+            100.0 * row.waypoint_score_rate,
             row.path_ratio,
             row.path_ratio_p50,
             row.min_clearance_p50_m,

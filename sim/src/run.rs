@@ -103,6 +103,12 @@ pub struct RunMetrics {
     pub waypoints_captured: usize,
     /// Mission waypoints.
     pub waypoints: usize,
+    /// The interop server's in-order waypoint score (2019-2021): each waypoint of the
+    /// best in-order sequence of passes graded `max(0, 1 - d / 100 ft)`, summed
+    /// ([`crate::scoring::in_order_waypoint_score`]); at most `waypoints`. 0 in reports
+    /// written before it was kept.
+    #[serde(default)]
+    pub waypoint_score: f64,
     /// Whether the stack was finished before the time limit.
     pub completed: bool,
     /// Flight time, seconds.
@@ -350,6 +356,7 @@ pub fn run_with_streams(
         cylinders: jr.cylinder_hits.len(),
         waypoints_captured: jr.waypoints_captured.iter().filter(|h| **h).count(),
         waypoints: jr.waypoints_captured.len(),
+        waypoint_score: jr.waypoint_score,
         completed: stack.target().is_none(),
         mission_time_s: ap.state.t_s,
         path_length_m: path_len,

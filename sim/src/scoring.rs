@@ -6,6 +6,13 @@
 //! point comes within 100 ft (30.48 m, 3-D). Also: minimum clearance to any obstacle surface
 //! and time spent outside the fly zone or its altitude band.
 //!
+//! The interop server of 2019-2021 (the one whose JSON `tests/fixtures/interop` holds) also
+//! grades each waypoint by how close it was passed and counts only waypoints flown in
+//! order: of every sequence of passes that reaches the waypoints in their mission order
+//! (any may be left out, so the pattern can be taken up again), the best scores each
+//! waypoint in it `max(0, 1 - d / 100 ft)`, `d` the pass's closest approach; the run's
+//! score is that sum ([`in_order_waypoint_score`], [`JudgeReport::waypoint_score`]).
+//!
 //! # Units
 //! Seconds, ENU metres, metres MSL.
 
@@ -87,6 +94,10 @@ pub struct JudgeReport {
     pub cylinder_score: f64,
     /// Per mission waypoint: captured?
     pub waypoints_captured: Vec<bool>,
+    /// The interop server's in-order waypoint score: the sum over the best in-order
+    /// sequence of passes of `max(0, 1 - d / 100 ft)` ([`in_order_waypoint_score`]); at
+    /// most the number of waypoints.
+    pub waypoint_score: f64,
     /// Smallest distance from a judged point to any obstacle surface (negative inside), metres.
     pub min_clearance_m: f64,
     /// Seconds of judged points outside the fly zone or its altitude band.
@@ -147,6 +158,8 @@ pub fn judge_points(
     let mut sphere_hits = vec![false; ns];
     let mut cylinder_hits = vec![false; cylinders.len()];
     let mut waypoints_captured = vec![false; waypoints_m.len()];
+    // Every judged point within 100 ft of a waypoint, in time order: (waypoint, grade).
+    let mut passes: Vec<(usize, f64)> = Vec::new();
     let mut min_clearance_m = f64::INFINITY;
     let mut boundary_violation_s = 0.0;
     let mut boundary_excursions = 0;
@@ -171,6 +184,7 @@ pub fn judge_points(
             let d = ((p[0] - w[0]).powi(2) + (p[1] - w[1]).powi(2) + (p[2] - w[2]).powi(2)).sqrt();
             if d <= WAYPOINT_CAPTURE_M {
                 waypoints_captured[k] = true;
+                passes.push((k, 1.0 - d / WAYPOINT_CAPTURE_M));
             }
         }
         if let Some(m) = mission {
@@ -190,11 +204,32 @@ pub fn judge_points(
         cylinder_score: class_score(&cylinder_hits),
         sphere_hits,
         cylinder_hits,
+        waypoint_score: in_order_waypoint_score(&passes, waypoints_m.len()),
         waypoints_captured,
         min_clearance_m,
         boundary_violation_s,
         boundary_excursions,
     }
+}
+
+/// The interop server's waypoint score (2019-2021, `satisfied_waypoints`): `passes` are the
+/// judged points within 100 ft of a waypoint in time order, each `(waypoint index, grade)`
+/// with grade `max(0, 1 - d / 100 ft)`; the score is the largest sum of grades over
+/// sequences of passes whose waypoint indices rise strictly (each waypoint counted once, at
+/// its best pass in the sequence; waypoints may be left out). Indices at or past
+/// `waypoints` are ignored.
+pub fn in_order_waypoint_score(passes: &[(usize, f64)], waypoints: usize) -> f64 {
+    // best[i]: the best sum of a sequence ending at waypoint i with the passes so far.
+    let mut best = vec![0.0_f64; waypoints];
+    // A prefix maximum would be faster; the mission's waypoints are few.
+    for &(i, grade) in passes {
+        if i >= waypoints {
+            continue;
+        }
+        let before = best[..i].iter().copied().fold(0.0, f64::max);
+        best[i] = best[i].max(before + grade.max(0.0));
+    }
+    best.into_iter().fold(0.0, f64::max)
 }
 
 /// Which of the mission's fly-zone limits `p` (ENU metres) breaks, as the judges count time
@@ -357,6 +392,53 @@ mod tests {
             judge_points(&far, &none, &[], &w, None).waypoints_captured,
             vec![false]
         );
+    }
+
+    #[test]
+    fn the_waypoint_score_takes_the_best_in_order_passes_graded_by_distance() {
+        // By hand: 0 at 0.5 then 1 at 1.0 is 1.5; the later 0.9 pass of waypoint 0 comes
+        // after waypoint 1's and cannot precede it, alone it is 0.9.
+        assert_eq!(
+            in_order_waypoint_score(&[(0, 0.5), (1, 1.0), (0, 0.9)], 2),
+            1.5
+        );
+        // Waypoint 2 passed first: 0 then 1 (2.0) beats 2 alone (1.0).
+        assert_eq!(
+            in_order_waypoint_score(&[(2, 1.0), (0, 1.0), (1, 1.0)], 3),
+            2.0
+        );
+        // Waypoint 1 put off and flown last (0, 2, 3, 1): 0, 2, 3 count.
+        assert_eq!(
+            in_order_waypoint_score(&[(0, 1.0), (2, 1.0), (3, 1.0), (1, 1.0)], 4),
+            3.0
+        );
+        // A waypoint counts once, at its best pass in the sequence.
+        assert_eq!(
+            in_order_waypoint_score(&[(0, 0.25), (0, 0.75), (1, 0.5)], 2),
+            1.25
+        );
+        assert_eq!(in_order_waypoint_score(&[], 3), 0.0);
+        assert_eq!(
+            in_order_waypoint_score(&[(5, 1.0)], 3),
+            0.0,
+            "no such waypoint"
+        );
+        // Through the judge: a straight pass 50 ft (15.24 m) abeam of the first waypoint,
+        // then one over the second: about 0.5 + 1.0; the first passed 31 m off: 0 + 1.0.
+        let none = Still(vec![]);
+        let w = [[0.0, 0.0, 100.0], [200.0, 0.0, 100.0]];
+        let pass = |y0: f64| {
+            interpolate(&[
+                (0.0, [-50.0, y0, 100.0]),
+                (5.0, [50.0, y0, 100.0]),
+                (10.0, [150.0, 0.0, 100.0]),
+                (15.0, [250.0, 0.0, 100.0]),
+            ])
+        };
+        let s = judge_points(&pass(15.24), &none, &[], &w, None).waypoint_score;
+        assert!((s - 1.5).abs() < 1e-3, "{s}");
+        let s = judge_points(&pass(31.0), &none, &[], &w, None).waypoint_score;
+        assert!((s - 1.0).abs() < 1e-3, "{s}");
     }
 
     proptest::proptest! {

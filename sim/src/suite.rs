@@ -66,6 +66,10 @@ pub struct SummaryRow {
     pub cylinder_hit_rate: f64,
     /// Waypoints captured / waypoints.
     pub waypoint_rate: f64,
+    /// The interop server's in-order waypoint score over all runs / waypoints
+    /// ([`crate::run::RunMetrics::waypoint_score`]).
+    #[serde(default)]
+    pub waypoint_score_rate: f64,
     /// Fraction of runs finishing the stack in time.
     pub completed: f64,
     /// Mean path-length ratio.
@@ -236,6 +240,15 @@ fn summarise(
         sphere_hit_rate: ratio(&|r| r.metrics.spheres_hit, &|r| r.metrics.spheres),
         cylinder_hit_rate: ratio(&|r| r.metrics.cylinders_hit, &|r| r.metrics.cylinders),
         waypoint_rate: ratio(&|r| r.metrics.waypoints_captured, &|r| r.metrics.waypoints),
+        waypoint_score_rate: {
+            let waypoints: usize = rs.iter().map(|(_, r, _)| r.metrics.waypoints).sum();
+            let score: f64 = rs.iter().map(|(_, r, _)| r.metrics.waypoint_score).sum();
+            if waypoints == 0 {
+                0.0
+            } else {
+                score / waypoints as f64
+            }
+        },
         completed: mean(&|r| f64::from(u8::from(r.metrics.completed))),
         path_ratio: mean(&|r| r.metrics.path_ratio),
         path_ratio_p50: percentile(
