@@ -237,10 +237,11 @@ pub struct PlanParams {
     /// fled along their own track). Ranked as any route (out of danger a fly-zone exit
     /// still loses); not once the next waypoint is overdue, as for
     /// [`PlanParams::early_danger_risk`]. 0: off. Default 250 (2026-12-07; paired by seed
-    /// with it off over 1,400 fresh Webster Field runs with mixed spheres, 14 and 18 m/s:
-    /// sphere hits 14 -> 9, flights 2.2 s a run longer (standard error 0.7), time out of
-    /// the fly zone 4221 -> 3346 s, a small sample; README, "Now: escapes when a faster
-    /// obstacle is near" and "The escapes for a faster obstacle, flown again").
+    /// with it off over 1,800 fresh Webster Field runs with mixed spheres, 14 and 18 m/s:
+    /// sphere hits 20 -> 12, flights 2.3 s a run longer (standard error 0.6), team score
+    /// (900 s a hit) 1.7 s a run lower (2.3), time out of the fly zone 5306 -> 4098 s;
+    /// README, "Now: escapes when a faster obstacle is near" and "The escapes for a faster
+    /// obstacle, flown again").
     pub chase_escape_m: f64,
     /// Distance from the aircraft to the edge of the nearest moving obstacle faster than
     /// the aircraft (its estimated speed above the aircraft's cruise speed) whose
