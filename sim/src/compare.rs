@@ -194,6 +194,10 @@ pub struct RunFigures {
     pub waypoints_captured: usize,
     /// Mission waypoints.
     pub waypoints: usize,
+    /// The interop server's in-order waypoint score ([`crate::run::RunMetrics::waypoint_score`];
+    /// absent from reports older than it).
+    #[serde(default)]
+    pub waypoint_score: Option<f64>,
     /// Flight time, seconds.
     pub mission_time_s: f64,
     /// Flown length / straight mission legs (`null` in the report when it is not a number).
@@ -493,6 +497,9 @@ pub struct GroupComparison {
     pub waypoints_captured: BeforeAfter<usize>,
     /// Waypoints over the runs.
     pub waypoints: BeforeAfter<usize>,
+    /// The interop server's in-order waypoint score summed over the runs that report it,
+    /// over their waypoints: a fraction (`None`: no run reports one).
+    pub waypoint_score: BeforeAfter<Option<f64>>,
     /// Runs with a path ratio (those with `null` are left out of the next two).
     pub path_ratio_runs: BeforeAfter<usize>,
     /// Mean path ratio (`None`: no run has one).
@@ -748,6 +755,14 @@ fn compare_group(pairs: &[Pair<'_>], hit_cost_s: f64) -> GroupComparison {
         hits_sign_test_p: sign_test_p(runs_fewer_hits, runs_more_hits),
         waypoints_captured: sum(|r| r.waypoints_captured),
         waypoints: sum(|r| r.waypoints),
+        waypoint_score: per_side(pairs, |rs| {
+            let scored: Vec<(f64, usize)> = rs
+                .iter()
+                .filter_map(|r| r.waypoint_score.map(|s| (s, r.waypoints)))
+                .collect();
+            let of: usize = scored.iter().map(|(_, n)| n).sum();
+            (of > 0).then(|| scored.iter().map(|(s, _)| s).sum::<f64>() / of as f64)
+        }),
         path_ratio_runs: per_side(pairs, |rs| ratios(rs).len()),
         path_ratio_mean: per_side(pairs, |rs| mean(&ratios(rs))),
         path_ratio_p50: per_side(pairs, |rs| median(&ratios(rs))),
@@ -899,18 +914,21 @@ pub fn render_markdown(c: &Comparison) -> String {
             st.before, st.after
         );
     }
-    s.push_str("| family | strategy | runs | sphere hits | cylinder hits | waypoints captured | path ratio mean / p50 | mission time, a run (se) | team score, a run (se) | runs within 10 m | out of zone, s over the runs | replan CPU p95, median of runs (ms) |\n");
-    s.push_str("|---|---|---:|---|---|---|---|---:|---:|---|---|---|\n");
+    s.push_str("| family | strategy | runs | sphere hits | cylinder hits | waypoints captured | waypoint score, in order | path ratio mean / p50 | mission time, a run (se) | team score, a run (se) | runs within 10 m | out of zone, s over the runs | replan CPU p95, median of runs (ms) |\n");
+    s.push_str("|---|---|---:|---|---|---|---|---|---:|---:|---|---|---|\n");
     for g in &c.groups {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             g.family.name(),
             g.strategy.name(),
             g.runs,
             arrow(&g.sphere_hits, usize::to_string),
             arrow(&g.cylinder_hits, usize::to_string),
             waypoints_cell(&g.waypoints_captured, &g.waypoints),
+            arrow(&g.waypoint_score, |x| {
+                x.map_or_else(|| "n/a".to_string(), |x| format!("{:.1}%", 100.0 * x))
+            }),
             path_ratio_cell(g),
             paired_cell(&g.mission_time_s),
             paired_cell(&g.team_score_s),
@@ -924,7 +942,9 @@ pub fn render_markdown(c: &Comparison) -> String {
         "\nBefore -> after, runs paired by family, strategy and seed. Mission time and team score: \
          the mean of after minus before, seconds a run, with its standard error in brackets \
          (the differences' sample standard deviation over the square root of the runs). \
-         Team score: mission time plus {} s a sphere or cylinder hit.",
+         Team score: mission time plus {} s a sphere or cylinder hit. Waypoint score: the \
+         interop server's, waypoints graded by distance and counted in mission order, over \
+         the waypoints (n/a: reports older than it).",
         c.hit_cost_s
     );
     if c.hits_changed.is_empty() {
@@ -1014,6 +1034,7 @@ mod tests {
         clearance_m: f64,
         out_s: f64,
         cpu_ms: f64,
+        score: Option<f64>,
     }
 
     /// An unremarkable run of `mc-auto`: 5 of 5 waypoints in 300 s, path ratio 1.2, clear
@@ -1030,6 +1051,7 @@ mod tests {
             clearance_m: 30.0,
             out_s: 0.0,
             cpu_ms: 2.0,
+            score: None,
         }
     }
 
@@ -1065,6 +1087,12 @@ mod tests {
         fn cpu(self, cpu_ms: f64) -> Self {
             Self { cpu_ms, ..self }
         }
+        fn score(self, score: f64) -> Self {
+            Self {
+                score: Some(score),
+                ..self
+            }
+        }
     }
 
     /// A `report.json` of `runs` (family `mixed`) flown at `speed_mps`.
@@ -1072,7 +1100,7 @@ mod tests {
         let runs: Vec<Value> = runs
             .iter()
             .map(|r| {
-                json!(["mixed", {
+                let mut run = json!(["mixed", {
                     "seed": r.seed,
                     "strategy": r.strategy,
                     "metrics": {
@@ -1092,7 +1120,12 @@ mod tests {
                     },
                     "judge": {},
                     "track": []
-                }])
+                }]);
+                // Reports older than the waypoint score have no such key.
+                if let Some(score) = r.score {
+                    run[1]["metrics"]["waypoint_score"] = json!(score);
+                }
+                run
             })
             .collect();
         json!({
@@ -1160,6 +1193,22 @@ mod tests {
         assert_relative_eq!(g.team_score_s.mean, 40.0, epsilon = 1e-12);
         assert_relative_eq!(g.mission_time_s.mean, 10.0, epsilon = 1e-12);
         assert!(render_markdown(&c).contains("| +10.0 s (11.5) | +310.0 s (310.1) |"));
+    }
+
+    #[test]
+    fn the_waypoint_score_is_summed_over_the_runs_that_report_it() {
+        // Before: 4 + 5 of 10 waypoints. After: run 2's report is older (no score), so
+        // run 1 alone: 5 of 5.
+        let before = [r(1).score(4.0), r(2).score(5.0)];
+        let after = [r(1).score(5.0), r(2)];
+        let g = &compared(&before, &after).groups[0];
+        assert_relative_eq!(g.waypoint_score.before.unwrap(), 0.9, epsilon = 1e-12);
+        assert_relative_eq!(g.waypoint_score.after.unwrap(), 1.0, epsilon = 1e-12);
+        assert!(render_markdown(&compared(&before, &after)).contains("| 90.0% -> 100.0% |"));
+        // Neither side reports one.
+        let c = compared(&[r(1)], &[r(1)]);
+        assert_eq!(c.groups[0].waypoint_score.before, None);
+        assert!(render_markdown(&c).contains("| n/a -> n/a |"));
     }
 
     #[test]
