@@ -1369,6 +1369,21 @@ fn warns(plan: &Value, code: &str) -> bool {
         .is_some_and(|w| w.iter().any(|w| w["code"] == code))
 }
 
+/// Asks for a plan (`seed`, `base_revision`, `current_index`) with the fields of `extra`
+/// added, and expects 201.
+async fn plan_from(
+    app: &App,
+    id: &str,
+    (seed, base, current): (u64, i64, usize),
+    extra: Value,
+) -> Value {
+    let mut body = json!({"seed": seed, "base_revision": base, "current_index": current});
+    if let (Some(b), Value::Object(extra)) = (body.as_object_mut(), extra) {
+        b.extend(extra);
+    }
+    plan(app, id, body).await
+}
+
 /// A waypoint the aircraft has flown toward for longer than `defer_after_s` (240 s by
 /// default) is put off: the plan moves it to the end of the stack, flies the waypoints
 /// after it first and warns `waypoint_deferred`; the next waypoint's clock starts again.
@@ -1383,24 +1398,14 @@ async fn a_waypoint_pursued_for_four_minutes_is_put_off_to_the_end_of_the_stack(
     assert_eq!(flown(&p1)[0], Some(1), "{p1}");
     // 240 s on, still toward it: not longer than the limit, kept.
     telemetry_at(T0 + 250.0).await;
-    let p2 = plan(
-        &app,
-        &id,
-        json!({"seed": 2, "base_revision": 1, "current_index": toward}),
-    )
-    .await;
+    let p2 = plan_from(&app, &id, (2, 1, toward), json!({})).await;
     assert_eq!(p2["target_pending_s"], 240.0, "{p2}");
     assert!(!warns(&p2, "waypoint_deferred"), "{p2}");
     let toward = next_mission_item(&p2, toward);
     assert_eq!(p2["waypoints"][toward]["mission_index"], 1, "{p2}");
     // 250 s: with the rule off it is still the waypoint flown toward ...
     telemetry_at(T0 + 260.0).await;
-    let off = plan(
-        &app,
-        &id,
-        json!({"seed": 3, "base_revision": 2, "current_index": toward, "defer_after_s": 0}),
-    )
-    .await;
+    let off = plan_from(&app, &id, (3, 2, toward), json!({"defer_after_s": 0})).await;
     assert!(!warns(&off, "waypoint_deferred"), "{off}");
     assert_eq!(
         off["waypoints"][next_mission_item(&off, toward)]["mission_index"],
@@ -1408,12 +1413,7 @@ async fn a_waypoint_pursued_for_four_minutes_is_put_off_to_the_end_of_the_stack(
     );
     // ... and by default it is put off: waypoints 2-13 first, then 1, the items before
     // the current index as they were.
-    let p4 = plan(
-        &app,
-        &id,
-        json!({"seed": 4, "base_revision": 3, "current_index": toward}),
-    )
-    .await;
+    let p4 = plan_from(&app, &id, (4, 3, toward), json!({})).await;
     assert_eq!(p4["target_pending_s"], 250.0, "{p4}");
     assert!(warns(&p4, "waypoint_deferred"), "{p4}");
     let missions: Vec<u64> = mission_indices(&p4, toward).into_iter().flatten().collect();
@@ -1428,12 +1428,7 @@ async fn a_waypoint_pursued_for_four_minutes_is_put_off_to_the_end_of_the_stack(
     assert_eq!(v["identical"], true, "{v}");
     // The next waypoint's clock starts at that plan.
     telemetry_at(T0 + 265.0).await;
-    let p5 = plan(
-        &app,
-        &id,
-        json!({"seed": 5, "base_revision": 4, "current_index": toward}),
-    )
-    .await;
+    let p5 = plan_from(&app, &id, (5, 4, toward), json!({})).await;
     assert_eq!(p5["target_pending_s"], 5.0, "{p5}");
     assert!(!warns(&p5, "waypoint_deferred"), "{p5}");
 }
