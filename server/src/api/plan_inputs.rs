@@ -86,8 +86,9 @@ pub struct InputsRecord {
     /// next plan (absent: none, as in plans stored before the watch).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub watch: Option<StoredWatch>,
-    /// Seconds the next waypoint was pursued before being put off to the end of the stack
-    /// (absent: never, as plans stored before the rule were planned).
+    /// The limit the plan was asked with: a next waypoint pursued longer than this many
+    /// seconds is put off to the end of the stack (`defer_after_s`; 0: never; absent:
+    /// never, as plans stored before the rule were planned).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub defer_after_s: Option<f64>,
 }
