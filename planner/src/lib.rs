@@ -41,6 +41,7 @@ pub mod export;
 pub mod geometry;
 pub mod insertion;
 pub mod ladder;
+pub mod lane;
 pub mod mission;
 pub mod plan;
 pub mod prepass;

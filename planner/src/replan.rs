@@ -41,6 +41,7 @@ use predictor::{NoRisk, ObstacleSummary, Predictor, RiskField, RiskMap, RiskMapC
 
 use crate::defer::{Deferred, with_deferred};
 use crate::geometry::dist;
+use crate::lane::{Lane, LaneField};
 use crate::mission::{Aircraft, Mission};
 use crate::plan::{AircraftState, Plan, PlanError, PlanParams, PlanRequest, Strategy, plan_until};
 use crate::revisit::{with_captured_skipped, with_revisit};
@@ -300,6 +301,47 @@ pub fn nearest_fast_obstacle_m(
         .reduce(f64::min)
 }
 
+/// The lanes ([`crate::lane`]) of the obstacles faster than the aircraft (`speed_mps`)
+/// that reach altitudes `alt_m` and could meet it within `lane_s` seconds of `t_s` (the
+/// aircraft at `p`): each disc of radius plus `buffer_m`, carried on at its estimated
+/// velocity from `t_s` to `t_s + lane_s`, read at `risk`. The caller passes the obstacles
+/// its map holds ([`replan`]: not the stale ones, whose extrapolation means nothing).
+#[allow(clippy::too_many_arguments)]
+pub fn fast_lanes<'o>(
+    obstacles: impl IntoIterator<Item = &'o ObstacleSummary>,
+    speed_mps: f64,
+    p: crate::geometry::Point,
+    t_s: f64,
+    alt_m: [f64; 2],
+    buffer_m: f64,
+    lane_s: f64,
+    risk: f64,
+) -> Vec<Lane> {
+    obstacles
+        .into_iter()
+        .filter(|o| o.estimates.speed_mps > speed_mps)
+        .filter(|o| reaches_altitudes(o, alt_m[0], alt_m[1], buffer_m))
+        .filter_map(|o| {
+            let e = &o.estimates;
+            let radius_m = o.last_observation.radius_m + buffer_m;
+            let at = [
+                e.position_m[0] + e.velocity_mps[0] * (t_s - e.t_s),
+                e.position_m[1] + e.velocity_mps[1] * (t_s - e.t_s),
+            ];
+            let reach = (e.speed_mps + speed_mps) * lane_s + radius_m;
+            (dist(at, p) <= reach).then(|| Lane {
+                p_m: e.position_m,
+                at_s: e.t_s,
+                v_mps: e.velocity_mps,
+                radius_m,
+                window_s: [t_s, t_s + lane_s],
+                reach_m: altitude_reach(o, buffer_m),
+                risk,
+            })
+        })
+        .collect()
+}
+
 /// Whether obstacle `o` can come within its radius plus `buffer_m` of altitudes
 /// `[lo_m, hi_m]` (see the module docs).
 pub fn reaches_altitudes(o: &ObstacleSummary, lo_m: f64, hi_m: f64, buffer_m: f64) -> bool {
@@ -475,6 +517,32 @@ pub fn replan(
             &view
         }
         None => risk,
+    };
+    // The lanes of obstacles faster than the aircraft (PlanParams::chase_lane_s), of those
+    // the map holds.
+    let laned;
+    let risk: &dyn RiskField = match banded {
+        Some((map, obstacles)) if cfg.plan.chase_lane_s > 0.0 => {
+            let lanes = fast_lanes(
+                obstacles
+                    .iter()
+                    .filter(|o| map.obstacles().any(|(id, _)| id == o.id)),
+                r.aircraft.speed_mps,
+                r.state.p_m,
+                r.state.t_s,
+                [lo, hi],
+                buffer,
+                cfg.plan.chase_lane_s,
+                cfg.plan.chase_lane_risk,
+            );
+            if lanes.is_empty() {
+                risk
+            } else {
+                laned = LaneField::new(risk, lanes);
+                &laned
+            }
+        }
+        _ => risk,
     };
     let mut params = cfg.plan;
     params.strategy = r.strategy;

@@ -803,3 +803,138 @@ fn a_waypoint_pursued_longer_than_four_minutes_is_put_off_to_the_end_of_the_stac
         (&[w1, w2][..], None)
     );
 }
+
+/// Where a route's polyline, flown at `speed` m/s from `state`, first comes within
+/// `radius_m` of a disc at `c0` at `t0` moving at `v` (checked every 0.05 s up to
+/// `until_s`): an independent reading of a lane.
+fn first_in_lane(
+    state: &AircraftState,
+    items: &[planner::StackItem],
+    speed: f64,
+    (c0, t0, v, radius_m): ([f64; 2], f64, [f64; 2], f64),
+    until_s: f64,
+) -> Option<f64> {
+    let mut pts = vec![state.p_m];
+    pts.extend(items.iter().map(|i| i.p_m));
+    let (mut leg, mut along, mut t) = (0, 0.0, state.t_s);
+    while t <= until_s && leg + 1 < pts.len() {
+        let (a, b) = (pts[leg], pts[leg + 1]);
+        let l = (b[0] - a[0]).hypot(b[1] - a[1]);
+        if along > l {
+            along -= l;
+            leg += 1;
+            continue;
+        }
+        let f = if l > 0.0 { along / l } else { 0.0 };
+        let p = [a[0] + (b[0] - a[0]) * f, a[1] + (b[1] - a[1]) * f];
+        let c = [c0[0] + v[0] * (t - t0), c0[1] + v[1] * (t - t0)];
+        if (p[0] - c[0]).hypot(p[1] - c[1]) <= radius_m {
+            return Some(t);
+        }
+        t += 0.05;
+        along += speed * 0.05;
+    }
+    None
+}
+
+#[test]
+fn a_sphere_faster_than_the_aircraft_closing_from_behind_is_read_along_its_lane() {
+    // A 15 m sphere weaving 40 m either side of a line every 13.3 s at 25 m/s eastward,
+    // 60 m behind the 20 m/s aircraft at t = 10 s, on the leg's line and heading east: it
+    // closes at 5 m/s. Its predicted cloud spreads across its track, so the route flown
+    // as given reads under the safe risk at every point, and the plan keeps to the lane.
+    // With lanes of 10 s (PlanParams::chase_lane_s) its disc (15 m and the map's 5 m
+    // buffer) carried on at its estimated velocity is read at 0.5 wherever the map reads
+    // less: that route is then not clear, its first conflict where an independent flight of
+    // its polyline meets the disc, and the plan leaves the lane. For an aircraft whose
+    // cruise speed is 30 m/s the sphere is not faster and has no lane.
+    let period = 40.0 / 3.0;
+    let p = observed_at_5hz("5", 10.0, |t| {
+        [
+            25.0 * (t - 10.0) - 60.0,
+            40.0 + 40.0 * (std::f64::consts::TAU * t / period).sin(),
+        ]
+    });
+    let m = mission();
+    let stack = mission_stack(&m);
+    let plan = |lane_s: f64, strategy: Strategy, cruise: f64| {
+        let mut cfg = config();
+        cfg.plan.chase_lane_s = lane_s;
+        let mut r = Replan {
+            strategy,
+            ..request(&m, &stack, 5)
+        };
+        r.aircraft.speed_mps = cruise;
+        replan(&r, Dynamic::Predictor(&p), &cfg, &Termination::none())
+            .expect("plan")
+            .plan
+    };
+    assert_eq!(config().plan.chase_lane_s, 10.0, "on by default");
+    let e = p.obstacle("5").expect("tracked").estimates;
+    let lane = (e.position_m, e.t_s, e.velocity_mps, 20.0);
+    let state = request(&m, &stack, 5).state;
+    let in_lane = |items: &[planner::StackItem]| {
+        first_in_lane(&state, &items[1..], 20.0, lane, state.t_s + 10.0)
+    };
+    let off = plan(0.0, Strategy::None, 20.0);
+    let on = plan(10.0, Strategy::None, 20.0);
+    assert!(off.verification.is_clear(0.1), "{:?}", off.verification);
+    let met = in_lane(&on.items).expect("the route flown as given meets the lane");
+    assert!((15.0..19.5).contains(&met), "met at {met} s");
+    assert_eq!(on.verification.near_peak_risk, 0.5);
+    assert!(!on.verification.is_clear(0.1));
+    match on.verification.conflict {
+        // To a step of the check (3 m at 20 m/s).
+        Some(planner::Conflict::Risk { t_s, risk, .. }) => {
+            assert!(
+                (t_s - met).abs() < 0.2 && risk == 0.5,
+                "{t_s} s, {risk}; met at {met} s"
+            )
+        }
+        other => panic!("{other:?}"),
+    }
+    // Not faster than a 30 m/s aircraft: no lane.
+    assert_eq!(
+        plan(10.0, Strategy::None, 30.0).verification,
+        plan(0.0, Strategy::None, 30.0).verification
+    );
+    // A stale track (last seen 45 s before, so not in the live map) has no lane, though
+    // carried on at its velocity it would be on the route: a 25 m/s flyer along the
+    // leg's line that would reach x = 100 m at 15 s, with the aircraft.
+    let mut with_stale = p.clone();
+    for k in 0..=25 {
+        let t = -40.0 + 0.2 * f64::from(k);
+        with_stale.observe(
+            "old",
+            Observation {
+                t_s: t,
+                p_m: [100.0 + 25.0 * (t - 15.0), 0.0],
+                alt_m: 100.0,
+                radius_m: 15.0,
+            },
+        );
+    }
+    let stale_plan = {
+        let mut cfg = config();
+        cfg.plan.chase_lane_s = 10.0;
+        let r = Replan {
+            strategy: Strategy::None,
+            ..request(&m, &stack, 5)
+        };
+        replan(
+            &r,
+            Dynamic::Predictor(&with_stale),
+            &cfg,
+            &Termination::none(),
+        )
+        .expect("plan")
+        .plan
+    };
+    assert_eq!(stale_plan.verification, on.verification);
+    // Without lanes the plan keeps to the lane; with them it leaves it.
+    let kept = plan(0.0, Strategy::Bisection, 20.0);
+    assert!(in_lane(&kept.items).is_some(), "{:?}", kept.items);
+    let left = plan(10.0, Strategy::Bisection, 20.0);
+    assert_eq!(in_lane(&left.items), None, "{:?}", left.items);
+    assert!(left.verification.is_clear(0.1), "{:?}", left.verification);
+}
