@@ -283,6 +283,12 @@ pub fn live_map(
     Ok(Some(LiveMap { t0_s, ids, map }))
 }
 
+/// Whether obstacle `o` is faster than `speed_mps` (its estimated speed) and can reach
+/// altitudes `alt_m` ([`reaches_altitudes`]).
+fn faster_within(o: &ObstacleSummary, speed_mps: f64, alt_m: [f64; 2], buffer_m: f64) -> bool {
+    o.estimates.speed_mps > speed_mps && reaches_altitudes(o, alt_m[0], alt_m[1], buffer_m)
+}
+
 /// The distance from `p` to the edge of the nearest obstacle faster than `speed_mps` (its
 /// estimated speed) that can reach altitudes `alt_m` ([`reaches_altitudes`]), metres
 /// (negative inside it); `None` when there is none ([`PlanParams::fast_obstacle_m`]).
@@ -295,8 +301,7 @@ pub fn nearest_fast_obstacle_m(
 ) -> Option<f64> {
     obstacles
         .iter()
-        .filter(|o| o.estimates.speed_mps > speed_mps)
-        .filter(|o| reaches_altitudes(o, alt_m[0], alt_m[1], buffer_m))
+        .filter(|o| faster_within(o, speed_mps, alt_m, buffer_m))
         .map(|o| dist(o.estimates.position_m, p) - o.last_observation.radius_m)
         .reduce(f64::min)
 }
@@ -319,8 +324,7 @@ pub fn fast_lanes<'o>(
 ) -> Vec<Lane> {
     obstacles
         .into_iter()
-        .filter(|o| o.estimates.speed_mps > speed_mps)
-        .filter(|o| reaches_altitudes(o, alt_m[0], alt_m[1], buffer_m))
+        .filter(|o| faster_within(o, speed_mps, alt_m, buffer_m))
         .filter_map(|o| {
             let e = &o.estimates;
             let radius_m = o.last_observation.radius_m + buffer_m;
