@@ -256,7 +256,8 @@ pub struct PlanParams {
     /// against the truth. 0: off. Default 10 (2026-12-07, session 26; paired by seed with
     /// it off over 400 fresh Webster Field runs with mixed spheres, 14 and 18 m/s: sphere
     /// hits 4 -> 2, flights 2.1 s a run longer (standard error 0.9), team score (900 s a
-    /// hit) 2.4 s a run lower (3.3); README, "Now: the lane of a faster obstacle").
+    /// hit) 2.4 s a run lower (3.3); with a check block of 200 more at 14 m/s, 5 -> 3 and
+    /// -1.1 s (3.1); README, "Now: the lane of a faster obstacle").
     pub chase_lane_s: f64,
     /// The risk read inside a lane of [`PlanParams::chase_lane_s`]: above
     /// [`PlanParams::danger_risk`], so a route in a lane is in danger. Default 0.5.
