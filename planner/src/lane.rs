@@ -30,7 +30,7 @@
 
 use predictor::RiskField;
 
-use crate::geometry::Point;
+use crate::geometry::{Point, dist_point_segment};
 
 /// One obstacle's lane.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,14 +100,8 @@ impl Lane {
             (self.centre(lo), self.centre(lo), a_m, b_m)
         };
         let r0 = [p0[0] - c0[0], p0[1] - c0[1]];
-        let d = [p1[0] - c1[0] - r0[0], p1[1] - c1[1] - r0[1]];
-        let dd = d[0] * d[0] + d[1] * d[1];
-        let f = if dd > 0.0 {
-            (-(r0[0] * d[0] + r0[1] * d[1]) / dd).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let closest = (r0[0] + d[0] * f).hypot(r0[1] + d[1] * f);
+        let r1 = [p1[0] - c1[0], p1[1] - c1[1]];
+        let closest = dist_point_segment([0.0, 0.0], r0, r1);
         if closest <= self.radius_m {
             self.risk
         } else {
