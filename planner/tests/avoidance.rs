@@ -622,6 +622,34 @@ fn a_sphere_sweeping_across_a_corridor_is_waited_for() {
     let r = route(&req.state, &p.items, p.current_index);
     let gap = clearance(&r, 0.0, 20.0, sphere.r_m, |t| sphere.at(t));
     assert!(gap > 0.0, "passes {gap:.1} m inside the sphere: {r:?}");
+    // The sweep is met 25 s ahead, where the graded limit is 0.55: the stack reads a
+    // graded peak of 0.18, unclear only just. With the stack kept while unclear only just
+    // (PlanParams::keep_marginal_factor), the cap on its peak (keep_marginal_peak, 0.5)
+    // still takes the hold: a collision read as certain is not flown on. With the cap at
+    // 1 the stack was flown on and the hold lost (session 27, before the cap).
+    let keep = |cap: f64| {
+        let params = PlanParams {
+            hold: true,
+            horizon_s: 40.0,
+            keep_marginal_factor: 2.0,
+            keep_marginal_peak: cap,
+            ..PlanParams::default()
+        };
+        plan(
+            &PlanRequest {
+                params,
+                ..req.clone()
+            },
+            &sphere,
+        )
+        .unwrap()
+    };
+    let held = keep(PlanParams::default().keep_marginal_peak);
+    assert_eq!(held.outcome, PlanOutcome::Exact, "{held:?}");
+    assert_eq!(held.items, p.items);
+    let flown_on = keep(1.0);
+    assert_eq!(flown_on.outcome, PlanOutcome::NoSafePath, "{flown_on:?}");
+    assert_eq!(flown_on.items, stack);
     // The scenario needs the hold: without it no verified clear route exists.
     let params = PlanParams {
         hold: false,

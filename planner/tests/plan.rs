@@ -734,7 +734,7 @@ fn a_stack_unclear_only_just_and_only_far_ahead_is_kept_over_a_much_longer_clear
     };
     let is_stack = |items: &[planner::StackItem]| items == stack.as_slice();
 
-    // Off (the default): the clear way round the band's end is taken.
+    // Off: the clear way round the band's end is taken.
     let f = band(0.4, far, 12.0);
     let off = run(&f, 0.0, 50.0);
     assert_eq!(off.outcome, PlanOutcome::Exact, "{:?}", off.verification);
@@ -760,6 +760,9 @@ fn a_stack_unclear_only_just_and_only_far_ahead_is_kept_over_a_much_longer_clear
     assert_eq!(near_peak(&f, &kept.items), 0.0);
     assert_eq!(sampled_peak(&f, &state, &kept.items, 0), 0.4);
 
+    // Off by default.
+    assert_eq!(PlanParams::default().keep_marginal_factor, 0.0);
+
     // On, the way round within the slack: taken.
     let within = run(&f, 2.0, detour_m + 50.0);
     assert_eq!(within.outcome, PlanOutcome::Exact);
@@ -771,6 +774,35 @@ fn a_stack_unclear_only_just_and_only_far_ahead_is_kept_over_a_much_longer_clear
     assert_eq!(deep.outcome, PlanOutcome::Exact, "{:?}", deep.verification);
     assert!(!is_stack(&deep.items), "{:?}", deep.items);
     assert_eq!(sampled_peak(&f, &state, &deep.items, 0), 0.0);
+
+    // On, a band read at 0.8 25-28 s ahead (500-560 m), at the default far limit of 1:
+    // unclear only just (graded peak 0.8 * 0.1 / 0.775 = 0.103, within twice the safe
+    // risk) but likelier than not. Above the cap (PlanParams::keep_marginal_peak, 0.5 by
+    // default) it is not flown on and the way round reads no risk; with the cap at 1 it is.
+    let f = band(0.8, [500.0, 560.0], 12.0);
+    let capped = |cap: f64| {
+        let mut r = request(&m, &stack, 0, state, 5);
+        r.params.keep_marginal_factor = 2.0;
+        r.params.keep_marginal_slack = 0.0;
+        r.params.keep_marginal_slack_m = 50.0;
+        r.params.keep_marginal_peak = cap;
+        plan(&r, &f).unwrap()
+    };
+    assert_eq!(PlanParams::default().keep_marginal_peak, 0.5);
+    let way_round = capped(0.5);
+    assert_eq!(
+        way_round.outcome,
+        PlanOutcome::Exact,
+        "{:?}",
+        way_round.verification
+    );
+    assert!(!is_stack(&way_round.items), "{:?}", way_round.items);
+    assert_eq!(sampled_peak(&f, &state, &way_round.items, 0), 0.0);
+    let flown_on = capped(1.0);
+    assert!(is_stack(&flown_on.items), "{:?}", flown_on.items);
+    assert_eq!(flown_on.outcome, PlanOutcome::NoSafePath);
+    assert_eq!(sampled_peak(&f, &state, &flown_on.items, 0), 0.8);
+    assert_eq!(near_peak(&f, &flown_on.items), 0.0);
 
     // On, the same risk within the near window (the band 100-160 m ahead, 5-8 s out): the
     // stack's near window is not clear, and the way round is taken.

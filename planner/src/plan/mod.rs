@@ -286,24 +286,38 @@ pub struct PlanParams {
     pub danger_commit_exposure: f64,
     /// The stack in flight, unclear only beyond the near window (no hard violation, its
     /// near-term peak within [`PlanParams::safe_risk`], its graded peak within this many
-    /// times it) and missing no more waypoints, is kept over a clear route longer than it
-    /// by more than [`PlanParams::keep_marginal_slack`] (fraction) plus
+    /// times it, its peak within [`PlanParams::keep_marginal_peak`]) and missing no more
+    /// waypoints, is kept over a clear route longer than it by more than
+    /// [`PlanParams::keep_marginal_slack`] (fraction) plus
     /// [`PlanParams::keep_marginal_slack_m`]. The plan then says `NoSafePath` (the route
     /// flown is not verified clear) and the next plans read the conflict again as it comes
     /// nearer, where the limit tightens to the safe risk. The far part of a prediction moves
     /// from one map to the next, and without this a route that drifted just over the
     /// graded limit 15-30 s ahead was swapped for a detour hundreds of metres longer, often
     /// swapped back a few seconds later (issue 10: on Webster Field, `mc-auto` re-routed
-    /// onto longer routes by 8.5 km a run, the oracle by 3.0). 0: off. Default 0: at 2
-    /// (with the default slacks), 800 Webster Field runs were 2.1 s a run shorter (standard
-    /// error 0.95) with one hit fewer but one waypoint of 11,200 lost, and a rule that flies
-    /// a route the verifier calls unclear waits for the whole suite (the README's "A stack
-    /// unclear only just, far ahead").
+    /// onto longer routes by 8.5 km a run, the oracle by 3.0). Not for a field that is the
+    /// truth (the simulator's `oracle` sets 0): there a risk far ahead is a collision, not
+    /// a spread that moves. 0: off. Default 0: at 2 (with the default slacks), 800 Webster
+    /// Field runs of the planner of 2026-12-02 were 2.1 s a run shorter (standard error
+    /// 0.95), one hit fewer, one waypoint of 11,200 lost; on 2026-12-07 (session 27), 400
+    /// fresh Webster Field runs with mixed spheres, 14 and 18 m/s, 0.8 s shorter (0.8) with
+    /// the same 5 hits, but that build flew on toward a collision read as certain 25 s
+    /// ahead (`a_sphere_sweeping_across_a_corridor_is_waited_for`), and with
+    /// [`PlanParams::keep_marginal_peak`] at 0.5 the same runs were 0.01 s shorter (0.55):
+    /// nothing to show for plans that say `NoSafePath` while flying on (the README's "Two
+    /// rules flown on fresh seeds, not switched on").
     pub keep_marginal_factor: f64,
     /// See [`PlanParams::keep_marginal_factor`]: the fraction. Default 0.1.
     pub keep_marginal_slack: f64,
     /// See [`PlanParams::keep_marginal_factor`], metres. Default 100.
     pub keep_marginal_slack_m: f64,
+    /// See [`PlanParams::keep_marginal_factor`]: the highest risk the kept stack may read
+    /// anywhere within the horizon. Far ahead the graded limit nears 1, so a collision the
+    /// prediction calls certain 20-30 s ahead is within twice the safe risk there; above
+    /// this it is not flown on, and the way round (or a hold) is taken while there is room
+    /// for it (`a_sphere_sweeping_across_a_corridor_is_waited_for`, planner/tests). Default
+    /// 0.5.
+    pub keep_marginal_peak: f64,
 }
 
 impl Default for PlanParams {
@@ -338,6 +352,7 @@ impl Default for PlanParams {
             keep_marginal_factor: 0.0,
             keep_marginal_slack: 0.1,
             keep_marginal_slack_m: 100.0,
+            keep_marginal_peak: 0.5,
         }
     }
 }
@@ -576,11 +591,13 @@ fn manoeuvre_start<'a>(
 
 /// Whether the stack in flight (verified as `base`) is kept over the clear route `best`
 /// ([`PlanParams::keep_marginal_factor`]): `base` has no hard violation, a near-term peak
-/// within the safe risk, a graded peak within the factor times it, misses no more
-/// waypoints, and `best` is longer by more than the slack.
+/// within the safe risk, a graded peak within the factor times it, a peak within
+/// [`PlanParams::keep_marginal_peak`], misses no more waypoints, and `best` is longer by
+/// more than the slack.
 fn keeps_marginal(base: &Verification, best: &Verification, p: &PlanParams) -> bool {
     p.keep_marginal_factor > 0.0
         && base.marginal_within(p.safe_risk, p.keep_marginal_factor)
+        && base.peak_risk <= p.keep_marginal_peak
         && base.missed_waypoints <= best.missed_waypoints
         && best.length_m > base.length_m * (1.0 + p.keep_marginal_slack) + p.keep_marginal_slack_m
 }

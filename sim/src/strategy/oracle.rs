@@ -69,6 +69,10 @@ impl Oracle {
         // Knowing the future, a verified wait is a real one: the ceiling may hold
         // (`PlanParams::hold`), which the prediction-based strategies do not.
         config.plan.hold = true;
+        // The truth far ahead is a collision, not a spread that moves from one map to the
+        // next: no stack is kept for being unclear only far ahead
+        // (`PlanParams::keep_marginal_factor`).
+        config.plan.keep_marginal_factor = 0.0;
         Self {
             config,
             period_s: 1.0,
