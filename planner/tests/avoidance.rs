@@ -635,14 +635,7 @@ fn a_sphere_sweeping_across_a_corridor_is_waited_for() {
             keep_marginal_peak: cap,
             ..PlanParams::default()
         };
-        plan(
-            &PlanRequest {
-                params,
-                ..req.clone()
-            },
-            &sphere,
-        )
-        .unwrap()
+        plan(&PlanRequest { params, ..req }, &sphere).unwrap()
     };
     let held = keep(PlanParams::default().keep_marginal_peak);
     assert_eq!(held.outcome, PlanOutcome::Exact, "{held:?}");
