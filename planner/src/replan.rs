@@ -306,6 +306,30 @@ pub fn nearest_fast_obstacle_m(
         .reduce(f64::min)
 }
 
+/// The near window of a plan for an aircraft at `at` cruising at `speed_mps`
+/// ([`PlanParams::calm_near_s`]): `p.calm_near_s` when it is on and shorter than
+/// `p.verify.near_s` and no obstacle of `obstacles` at least `p.calm_speed_factor` times
+/// `speed_mps` (its estimated speed), reaching altitudes `alt_m`, has its edge within
+/// `p.calm_m` of `at`; `p.verify.near_s` otherwise.
+pub fn calm_near_s(
+    p: &PlanParams,
+    obstacles: &[ObstacleSummary],
+    speed_mps: f64,
+    at: crate::geometry::Point,
+    alt_m: [f64; 2],
+    buffer_m: f64,
+) -> f64 {
+    let near_s = p.verify.near_s;
+    if !(p.calm_near_s > 0.0 && p.calm_near_s < near_s) {
+        return near_s;
+    }
+    let fast_mps = speed_mps * p.calm_speed_factor;
+    match nearest_fast_obstacle_m(obstacles, fast_mps, at, alt_m, buffer_m) {
+        Some(d) if d <= p.calm_m => near_s,
+        _ => p.calm_near_s,
+    }
+}
+
 /// The lanes ([`crate::lane`]) of the obstacles faster than the aircraft (`speed_mps`)
 /// that reach altitudes `alt_m` and could meet it within `lane_s` seconds of `t_s` (the
 /// aircraft at `p`): each disc of radius plus `buffer_m`, carried on at its estimated
@@ -560,6 +584,18 @@ pub fn replan(
             buffer,
         )
     });
+    // A shorter near window while no obstacle about as fast as the aircraft is near
+    // (PlanParams::calm_near_s).
+    if let Some((_, obstacles)) = banded {
+        params.verify.near_s = calm_near_s(
+            &params,
+            obstacles,
+            r.aircraft.speed_mps,
+            r.state.p_m,
+            [lo, hi],
+            buffer,
+        );
+    }
     // A waypoint captured on the way is skipped (or one waited for too long put off): the
     // next one has only now become the target.
     let skipped = !r.revisit && rewritten.is_some();

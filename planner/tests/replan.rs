@@ -579,6 +579,9 @@ fn an_obstacle_faster_than_the_aircraft_counts_twice_within_the_near_window() {
     let plan = |p: &Predictor, weight: u32, cruise: f64| {
         let mut cfg = config();
         cfg.plan.verify.fast_weight = weight;
+        // One near window at every cruise speed (PlanParams::calm_near_s would shorten it
+        // for the 30 m/s aircraft, which nothing here is as fast as).
+        cfg.plan.calm_near_s = 0.0;
         flown_as_given(p, &cfg, cruise)
     };
     assert_eq!(config().plan.verify.fast_weight, 1, "off by default");
@@ -719,6 +722,147 @@ fn the_nearest_obstacle_faster_than_the_aircraft_is_measured_from_its_edge() {
     );
     // For a 30 m/s aircraft none is.
     assert_eq!(near(30.0, [100.0, 400.0]), None);
+}
+
+#[test]
+fn the_near_window_is_shorter_while_nothing_about_as_fast_as_the_aircraft_is_near() {
+    // The three spheres of the test above (edges: the 25 m/s one 270 m away, the 10 m/s
+    // one 70 m, the 25 m/s one 300 m higher 170 m). PlanParams::calm_near_s: 7 s while no
+    // obstacle at least 0.9 times the aircraft's cruise speed, at the route's altitudes,
+    // has its edge within 400 m; the full 10 s otherwise.
+    let mut p = Predictor::new(PredictorConfig::default());
+    for (id, speed, north, alt) in [
+        ("fast", 25.0, 300.0, 100.0),
+        ("slow", 10.0, 100.0, 100.0),
+        ("high", 25.0, 200.0, 400.0),
+    ] {
+        for k in 0..=50 {
+            let t = 0.2 * f64::from(k);
+            p.observe(
+                id,
+                Observation {
+                    t_s: t,
+                    p_m: [speed * (t - 10.0), north],
+                    alt_m: alt,
+                    radius_m: 30.0,
+                },
+            );
+        }
+    }
+    let obstacles: Vec<_> = p.obstacles().collect();
+    let defaults = planner::PlanParams::default();
+    assert_eq!(
+        (
+            defaults.calm_near_s,
+            defaults.calm_speed_factor,
+            defaults.calm_m,
+            defaults.verify.near_s
+        ),
+        (7.0, 0.9, 400.0, 10.0),
+        "on by default"
+    );
+    let window = |params: &planner::PlanParams, cruise: f64, alt: [f64; 2]| {
+        planner::replan::calm_near_s(params, &obstacles, cruise, [0.0, 0.0], alt, 5.0)
+    };
+    let level = [100.0, 100.0];
+    // A 20 m/s aircraft: the fast sphere, 270 m off, keeps the full window; only within
+    // 250 m would it not.
+    assert_eq!(window(&defaults, 20.0, level), 10.0);
+    let within_250 = planner::PlanParams {
+        calm_m: 250.0,
+        ..defaults
+    };
+    assert_eq!(window(&within_250, 20.0, level), 7.0);
+    // Climbing to 400 m the high one, 170 m off, is reached too.
+    assert_eq!(window(&within_250, 20.0, [100.0, 400.0]), 10.0);
+    // An 11 m/s aircraft: the 10 m/s sphere is at least 0.9 times as fast, 70 m off.
+    let within_100 = planner::PlanParams {
+        calm_m: 100.0,
+        ..defaults
+    };
+    assert_eq!(window(&within_100, 11.0, level), 10.0);
+    // A 12 m/s one: 10 m/s is under 0.9 times its speed, and the fast one is 270 m off.
+    assert_eq!(window(&within_100, 12.0, level), 7.0);
+    // A 30 m/s aircraft: none is at least 27 m/s.
+    assert_eq!(window(&defaults, 30.0, [100.0, 400.0]), 7.0);
+    // Off: 0, or a calm window no shorter than the near window.
+    for calm in [0.0, 10.0, 12.0] {
+        let p = planner::PlanParams {
+            calm_near_s: calm,
+            ..defaults
+        };
+        assert_eq!(window(&p, 30.0, level), 10.0, "calm_near_s {calm}");
+    }
+    // No obstacle at all: calm.
+    assert_eq!(
+        planner::replan::calm_near_s(&defaults, &[], 20.0, [0.0, 0.0], level, 5.0),
+        7.0
+    );
+}
+
+#[test]
+fn a_slower_sphere_met_8_s_ahead_is_read_with_the_7_s_window_unless_a_fast_one_is_near() {
+    // The stack straight east along the leg, flown as given, for the 20 m/s aircraft.
+    // A 15 m sphere flying west at 8 m/s, weaving 20 m either side every 12 s, 230 m ahead
+    // of the aircraft at the plan and `north` m off the leg, meets it about 8 s on: between
+    // a 7 s window and a 10 s one. A 25 m/s sphere flies east far south of the leg, its
+    // edge 365 m from the aircraft (within PlanParams::calm_m) or 585 m (beyond). Through
+    // `replan`, with the defaults, the verification is exactly that of a fixed window: 10 s
+    // with the fast sphere near, 7 s with it far; and some routes are clear with the 7 s
+    // window and not with 10 s, so the switch decides them.
+    let plan = |south: f64, north: f64, calm: f64, near: f64| {
+        let mut p = observed_at_5hz("slow", 10.0, |t| {
+            [
+                230.0 - 8.0 * (t - 10.0),
+                north + 20.0 * (std::f64::consts::TAU * t / 12.0).sin(),
+            ]
+        });
+        for k in 0..=50 {
+            let t = 0.2 * f64::from(k);
+            p.observe(
+                "fast",
+                Observation {
+                    t_s: t,
+                    p_m: [25.0 * (t - 10.0), -south],
+                    alt_m: 100.0,
+                    radius_m: 15.0,
+                },
+            );
+        }
+        let mut cfg = config();
+        cfg.plan.calm_near_s = calm;
+        cfg.plan.verify.near_s = near;
+        flown_as_given(&p, &cfg, 20.0).verification
+    };
+    assert_eq!(config().plan.calm_near_s, 7.0, "on by default");
+    let (mut met, mut decided) = (0, 0);
+    for north in (40..=160).step_by(4) {
+        let north = f64::from(north);
+        let near = plan(380.0, north, 7.0, 10.0);
+        assert_eq!(
+            near,
+            plan(380.0, north, 0.0, 10.0),
+            "{north} m north, fast near"
+        );
+        let far = plan(600.0, north, 7.0, 10.0);
+        assert_eq!(
+            far,
+            plan(600.0, north, 0.0, 7.0),
+            "{north} m north, fast far"
+        );
+        if far.peak_risk > 0.0 {
+            met += 1;
+        }
+        let ten = plan(600.0, north, 0.0, 10.0);
+        if far.is_clear(0.1) && !ten.is_clear(0.1) {
+            // Met within the 10 s window but not the 7 s one, where the graded limit
+            // already lets it through.
+            assert!(ten.near_peak_risk > 0.1, "{north} m north: {ten:?}");
+            assert!(far.near_peak_risk < ten.near_peak_risk, "{north} m north");
+            decided += 1;
+        }
+    }
+    assert!(met >= 5 && decided >= 2, "{met} met, {decided} decided");
 }
 
 #[test]

@@ -259,6 +259,29 @@ pub struct PlanParams {
     /// hit) 2.4 s a run lower (3.3); with a check block of 200 more at 14 m/s, 5 -> 3 and
     /// -1.1 s (3.1); README, "Now: the lane of a faster obstacle").
     pub chase_lane_s: f64,
+    /// The near window ([`VerifyParams::near_s`]) of a plan made while no moving obstacle
+    /// at least [`PlanParams::calm_speed_factor`] times as fast as the aircraft (its
+    /// estimated speed, at altitudes the route reaches) has its edge within
+    /// [`PlanParams::calm_m`] of it, seconds ([`crate::replan`] sets it per request). The
+    /// 10 s window is the time to turn away from a sphere as fast as the aircraft that
+    /// turns toward it; one clearly slower is outturned in less, and the 10 s window sent
+    /// the aircraft round far spreads of such spheres that the next plans dropped (issue
+    /// 10: the median flight at 18 m/s lost 10-20 s on one leg that way). 0, or not under
+    /// `near_s`: off. Not for the oracle (no tracks: its field is the truth). Default 7
+    /// (2026-12-07, session 28; paired by seed with it off over 400 fresh Webster Field
+    /// runs with mixed spheres, 14 and 18 m/s, under a rule written before the flights:
+    /// runs hit 3 -> 2, flights 1.6 s a run shorter (standard error 1.0), at 18 m/s 2.0 s
+    /// (1.7); README, "Now: a shorter near window while nothing fast is near"). A 7 s
+    /// window for every plan was 4-9 s a run shorter but hit more (README, "The 7 s near
+    /// window flown again on fresh seeds, not kept").
+    pub calm_near_s: f64,
+    /// See [`PlanParams::calm_near_s`]: an obstacle at least this fraction of the
+    /// aircraft's cruise speed keeps the full near window while near. Default 0.9.
+    pub calm_speed_factor: f64,
+    /// See [`PlanParams::calm_near_s`]: how near such an obstacle's edge keeps the full
+    /// near window, metres. Default 400 (a sphere at 20 m/s and an 18 m/s aircraft close it
+    /// head-on in about 10 s, the full window).
+    pub calm_m: f64,
     /// The risk read inside a lane of [`PlanParams::chase_lane_s`]: above
     /// [`PlanParams::danger_risk`], so a route in a lane is in danger. Default 0.5.
     pub chase_lane_risk: f64,
@@ -346,6 +369,9 @@ impl Default for PlanParams {
             chase_escape_m: 250.0,
             chase_lane_s: 10.0,
             chase_lane_risk: 0.5,
+            calm_near_s: 7.0,
+            calm_speed_factor: 0.9,
+            calm_m: 400.0,
             fast_obstacle_m: None,
             danger_commit_risk: 0.15,
             danger_commit_exposure: 0.25,
