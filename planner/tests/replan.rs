@@ -672,13 +672,10 @@ fn an_obstacle_faster_than_the_aircraft_keeps_the_longer_near_window_of_its_own(
     assert!(met >= 5 && decided >= 1, "{met} met, {decided} decided");
 }
 
-#[test]
-fn the_nearest_obstacle_faster_than_the_aircraft_is_measured_from_its_edge() {
-    // Three spheres of 30 m watched for 10 s, flying east, at t = 10 s over x = 0: a fast
-    // one (25 m/s) 300 m north at the aircraft's altitude, a slow one (10 m/s) 100 m north,
-    // and a fast one 200 m north but 300 m higher. For a 20 m/s aircraft at the origin
-    // flying at 100 m only the first counts: its edge is 270 m away
-    // (PlanParams::fast_obstacle_m, which PlanParams::chase_escape_m reads).
+/// Three spheres of 30 m watched at 5 Hz for 10 s, flying east, at t = 10 s over x = 0: a
+/// fast one (25 m/s) 300 m north at 100 m, a slow one (10 m/s) 100 m north at 100 m, and a
+/// fast one 200 m north at 400 m.
+fn three_tracked_spheres() -> Predictor {
     let mut p = Predictor::new(PredictorConfig::default());
     for (id, speed, north, alt) in [
         ("fast", 25.0, 300.0, 100.0),
@@ -698,6 +695,17 @@ fn the_nearest_obstacle_faster_than_the_aircraft_is_measured_from_its_edge() {
             );
         }
     }
+    p
+}
+
+#[test]
+fn the_nearest_obstacle_faster_than_the_aircraft_is_measured_from_its_edge() {
+    // Three spheres of 30 m watched for 10 s, flying east, at t = 10 s over x = 0: a fast
+    // one (25 m/s) 300 m north at the aircraft's altitude, a slow one (10 m/s) 100 m north,
+    // and a fast one 200 m north but 300 m higher. For a 20 m/s aircraft at the origin
+    // flying at 100 m only the first counts: its edge is 270 m away
+    // (PlanParams::fast_obstacle_m, which PlanParams::chase_escape_m reads).
+    let p = three_tracked_spheres();
     let obstacles: Vec<_> = p.obstacles().collect();
     let near = |speed: f64, alt: [f64; 2]| {
         planner::replan::nearest_fast_obstacle_m(&obstacles, speed, [0.0, 0.0], alt, 5.0)
@@ -730,25 +738,7 @@ fn the_near_window_is_shorter_while_nothing_about_as_fast_as_the_aircraft_is_nea
     // one 70 m, the 25 m/s one 300 m higher 170 m). PlanParams::calm_near_s: 7 s while no
     // obstacle at least 0.9 times the aircraft's cruise speed, at the route's altitudes,
     // has its edge within 400 m; the full 10 s otherwise.
-    let mut p = Predictor::new(PredictorConfig::default());
-    for (id, speed, north, alt) in [
-        ("fast", 25.0, 300.0, 100.0),
-        ("slow", 10.0, 100.0, 100.0),
-        ("high", 25.0, 200.0, 400.0),
-    ] {
-        for k in 0..=50 {
-            let t = 0.2 * f64::from(k);
-            p.observe(
-                id,
-                Observation {
-                    t_s: t,
-                    p_m: [speed * (t - 10.0), north],
-                    alt_m: alt,
-                    radius_m: 30.0,
-                },
-            );
-        }
-    }
+    let p = three_tracked_spheres();
     let obstacles: Vec<_> = p.obstacles().collect();
     let defaults = planner::PlanParams::default();
     assert_eq!(
