@@ -224,6 +224,10 @@ pub struct Replanned {
     /// [`crate::PlanParams::defer_after_s`] ([`crate::defer`]); the plan's stack and diff
     /// show the move.
     pub deferred: Option<Deferred>,
+    /// The near window the plan was verified with, seconds: [`crate::VerifyParams::near_s`],
+    /// or [`crate::PlanParams::calm_near_s`] while no obstacle about as fast as the
+    /// aircraft is near.
+    pub near_s: f64,
 }
 
 /// A mission's live risk map and the obstacles in it.
@@ -632,5 +636,6 @@ pub fn replan(
         plan,
         dynamic,
         deferred,
+        near_s: params.verify.near_s,
     })
 }

@@ -554,6 +554,11 @@ fn weaving_flyer(speed: f64, north_m: f64) -> Predictor {
 /// The mission's stack planned with strategy none (flown as given) against `p` on `cfg`,
 /// for an aircraft reporting a cruise speed of `cruise` m/s.
 fn flown_as_given(p: &Predictor, cfg: &ReplanConfig, cruise: f64) -> planner::Plan {
+    flown_as_given_seen(p, cfg, cruise).plan
+}
+
+/// [`flown_as_given`], with what the seam reports beside the plan (its near window).
+fn flown_as_given_seen(p: &Predictor, cfg: &ReplanConfig, cruise: f64) -> planner::Replanned {
     let m = mission();
     let stack = mission_stack(&m);
     let mut r = Replan {
@@ -561,9 +566,7 @@ fn flown_as_given(p: &Predictor, cfg: &ReplanConfig, cruise: f64) -> planner::Pl
         ..request(&m, &stack, 5)
     };
     r.aircraft.speed_mps = cruise;
-    replan(&r, Dynamic::Predictor(p), cfg, &Termination::none())
-        .expect("plan")
-        .plan
+    replan(&r, Dynamic::Predictor(p), cfg, &Termination::none()).expect("plan")
 }
 
 #[test]
@@ -822,7 +825,15 @@ fn a_slower_sphere_met_8_s_ahead_is_read_with_the_7_s_window_unless_a_fast_one_i
         let mut cfg = config();
         cfg.plan.calm_near_s = calm;
         cfg.plan.verify.near_s = near;
-        flown_as_given(&p, &cfg, 20.0).verification
+        let seen = flown_as_given_seen(&p, &cfg, 20.0);
+        // The seam reports the window it verified with.
+        let want = if calm > 0.0 && south > 500.0 {
+            calm
+        } else {
+            near
+        };
+        assert_eq!(seen.near_s, want, "{south} m south, {north} m north");
+        seen.plan.verification
     };
     assert_eq!(config().plan.calm_near_s, 7.0, "on by default");
     let (mut met, mut decided) = (0, 0);

@@ -272,11 +272,11 @@ pub struct PlanParams {
     /// runs with mixed spheres, 14 and 18 m/s, under a rule written before the flights:
     /// runs hit 3 -> 2, flights 1.6 s a run shorter (standard error 1.0), at 18 m/s 2.0 s
     /// (1.7); 400 more after the decision, 4 -> 3; on the default suite's seeds 0-199, not
-    /// fresh, 0 -> 2: a sphere at 0.86 times the aircraft's speed, and a spline tour's
-    /// sphere read slow at its tour's end; README, "Now: a shorter near window while
-    /// nothing fast is near"). A 7 s
-    /// window for every plan was 4-9 s a run shorter but hit more (README, "The 7 s near
-    /// window flown again on fresh seeds, not kept").
+    /// fresh, 0 -> 2, both met under the full window on a path the shorter one had
+    /// changed, one of them after taking 7 s while a spline tour's sphere all but stopped
+    /// at its tour's ends, so read slow; README, "Now: a shorter near window while nothing
+    /// fast is near"). A 7 s window for every plan was 4-9 s a run shorter but hit more
+    /// (README, "The 7 s near window flown again on fresh seeds, not kept").
     pub calm_near_s: f64,
     /// See [`PlanParams::calm_near_s`]: an obstacle at least this fraction of the
     /// aircraft's cruise speed keeps the full near window while near. Default 0.9.

@@ -380,7 +380,7 @@ pub fn replan_command(
                         d.mission_index, d.stack_index, view.t_s, d.pending_s
                     );
                 }
-                trace_plan(view, &r, &p.plan);
+                trace_plan(view, &r, &p.plan, p.near_s);
                 if let Some(read) = read {
                     trace_target(view, read, &p.plan);
                 }
@@ -411,10 +411,11 @@ const TRACE_NEAR_M: f64 = 600.0;
 
 /// One line of `JINK_SIM_TRACE`: time, position and altitude, current index, the next
 /// fixed item of the plan (position and altitude), how long it has been pending, whether a
-/// missed waypoint is flown again, the outcome and the chosen route's verification; then the
+/// missed waypoint is flown again, the outcome, the near window it was verified with
+/// (`planner::Replanned::near_s`) and the chosen route's verification; then the
 /// chosen stack's next items and the true spheres near the aircraft (position now and 5 s
 /// on, how many observations the planner had of each, behaviour).
-fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
+fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan, near_s: f64) {
     let v = &plan.verification;
     let next = planner::next_fixed(&plan.items, plan.current_index)
         .map(|j| &plan.items[j])
@@ -422,7 +423,7 @@ fn trace_plan(view: &View<'_>, r: &planner::Replan<'_>, plan: &planner::Plan) {
         .unwrap_or_else(|| "none".into());
     eprintln!(
         "plan t={:.1} s pos=({:.0}, {:.0}) alt={:.0} current_index={} next_fixed={} \
-         pending_s={:?} revisit={} captured={} outcome={:?} \
+         pending_s={:?} revisit={} captured={} outcome={:?} near_s={near_s} \
          near_peak={:.2} graded_peak={:.2} peak={:.2} exposure_m={:.0} length_m={:.0} \
          added={} conflict={:?}",
         view.t_s,
