@@ -312,9 +312,10 @@ pub fn nearest_fast_obstacle_m(
 
 /// The near window of a plan for an aircraft at `at` cruising at `speed_mps`
 /// ([`PlanParams::calm_near_s`]): `p.calm_near_s` when it is on and shorter than
-/// `p.verify.near_s` and no obstacle of `obstacles` at least `p.calm_speed_factor` times
-/// `speed_mps` (its estimated speed), reaching altitudes `alt_m`, has its edge within
-/// `p.calm_m` of `at`; `p.verify.near_s` otherwise.
+/// `p.verify.near_s` and no obstacle of `obstacles` that has flown at least
+/// `p.calm_speed_factor` times `speed_mps` lately
+/// ([`ObstacleSummary::recent_max_speed_mps`]), reaching altitudes `alt_m`, has its edge
+/// within `p.calm_m` of `at`; `p.verify.near_s` otherwise.
 pub fn calm_near_s(
     p: &PlanParams,
     obstacles: &[ObstacleSummary],
@@ -328,7 +329,14 @@ pub fn calm_near_s(
         return near_s;
     }
     let fast_mps = speed_mps * p.calm_speed_factor;
-    match nearest_fast_obstacle_m(obstacles, fast_mps, at, alt_m, buffer_m) {
+    let near = obstacles
+        .iter()
+        .filter(|o| {
+            o.recent_max_speed_mps > fast_mps && reaches_altitudes(o, alt_m[0], alt_m[1], buffer_m)
+        })
+        .map(|o| dist(o.estimates.position_m, at) - o.last_observation.radius_m)
+        .reduce(f64::min);
+    match near {
         Some(d) if d <= p.calm_m => near_s,
         _ => p.calm_near_s,
     }

@@ -794,6 +794,34 @@ fn the_near_window_is_shorter_while_nothing_about_as_fast_as_the_aircraft_is_nea
 }
 
 #[test]
+fn a_sphere_at_rest_where_its_tour_turns_back_keeps_the_full_window_near_it() {
+    // The judges' out-and-back tour, x = 150 sin(2 pi t / 60) (at most 15.7 m/s), `north`
+    // m north of a 15 m/s aircraft at the origin, watched until t = 15 s: at rest where it
+    // turns back. Its speed now reads under 3 m/s, but within the last 30 s it flew 15.45
+    // m/s, above 0.9 times the aircraft's (ObstacleSummary::recent_max_speed_mps), so a
+    // plan near it keeps the full 10 s window (PlanParams::calm_near_s); beyond calm_m it
+    // takes 7 s. A sphere that has flown 3 m/s all along is calm near or far.
+    let defaults = planner::PlanParams::default();
+    let window = |p: &Predictor| {
+        let obstacles: Vec<_> = p.obstacles().collect();
+        planner::replan::calm_near_s(&defaults, &obstacles, 15.0, [0.0, 0.0], [100.0; 2], 5.0)
+    };
+    let tour = |north: f64| {
+        observed_at_5hz("tour", 15.0, move |t| {
+            [150.0 * (std::f64::consts::TAU * t / 60.0).sin(), north]
+        })
+    };
+    let near = tour(250.0);
+    let s = near.obstacle("tour").unwrap();
+    assert!(s.estimates.speed_mps < 3.0, "{}", s.estimates.speed_mps);
+    assert!(s.recent_max_speed_mps > 15.0, "{}", s.recent_max_speed_mps);
+    assert_eq!(window(&near), 10.0);
+    assert_eq!(window(&tour(500.0)), 7.0);
+    let slow = observed_at_5hz("slow", 15.0, |t| [3.0 * t, 250.0]);
+    assert_eq!(window(&slow), 7.0);
+}
+
+#[test]
 fn a_slower_sphere_met_8_s_ahead_is_read_with_the_7_s_window_unless_a_fast_one_is_near() {
     // The stack straight east along the leg, flown as given, for the 20 m/s aircraft.
     // A 15 m sphere flying west at 8 m/s, weaving 20 m either side every 12 s, 230 m ahead

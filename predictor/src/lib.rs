@@ -34,8 +34,8 @@ pub use field::{NO_BAND_HINT, NoRisk, RiskField};
 pub use motion::{MotionModel, ReplayModel};
 pub use periodic::{Lap, LapKind, LapPoint, PeriodicConfig};
 pub use predictor::{
-    ConstantVelocityField, ObstacleSummary, Predictor, PredictorConfig,
-    RULES_MAX_OBSTACLE_SPEED_MPS,
+    ConstantVelocityField, ObstacleSummary, Predictor, PredictorConfig, RECENT_SPEED_CHORD_S,
+    RECENT_SPEED_WINDOW_S, RULES_MAX_OBSTACLE_SPEED_MPS,
 };
 pub use replay::ReplayConfig;
 pub use risk_map::{AltitudeView, Layer, RiskMap, RiskMapConfig, RiskMapError, SliceView};

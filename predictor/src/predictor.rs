@@ -124,6 +124,12 @@ pub struct ObstacleSummary {
     pub alt_range_m: [f64; 2],
     /// The lap of a periodic tour it flies, when recognized ([`crate::periodic`]).
     pub lap: Option<Lap>,
+    /// The most it has flown lately, m/s: the highest mean speed over any
+    /// [`RECENT_SPEED_CHORD_S`] stretch of its track in the last [`RECENT_SPEED_WINDOW_S`]
+    /// (stretches start a second apart), and at least its estimated speed. A sphere on the
+    /// judges' out-and-back spline tours all but stops at each end of its tour, so its
+    /// speed now reads slow just as it turns back to fly as fast as before; this does not.
+    pub recent_max_speed_mps: f64,
     /// Every stage change with its statistic, oldest first.
     pub stage_history: Vec<StageChange>,
 }
@@ -527,8 +533,35 @@ fn summary(id: &str, ob: &Obstacle) -> ObstacleSummary {
                 [r[0].min(o.alt_m), r[1].max(o.alt_m)]
             }),
         lap: ob.model.lap,
+        recent_max_speed_mps: recent_max_speed_mps(&ob.track).max(ob.est.speed_mps),
         stage_history: ob.stages.history().to_vec(),
     }
+}
+
+/// The window [`ObstacleSummary::recent_max_speed_mps`] looks back over, seconds.
+pub const RECENT_SPEED_WINDOW_S: f64 = 30.0;
+/// The stretch [`ObstacleSummary::recent_max_speed_mps`] averages a speed over, seconds:
+/// long enough that a metre of position noise moves it by a fraction of a m/s.
+pub const RECENT_SPEED_CHORD_S: f64 = 3.0;
+
+/// The highest mean speed over [`RECENT_SPEED_CHORD_S`] chords of `track` starting a
+/// second apart in its last [`RECENT_SPEED_WINDOW_S`], m/s (0 for a shorter track).
+fn recent_max_speed_mps(track: &Track) -> f64 {
+    let (Some(first), Some(last)) = (track.observations().first(), track.last()) else {
+        return 0.0;
+    };
+    let chord = RECENT_SPEED_CHORD_S;
+    let end = last.t_s - chord;
+    let mut t = (last.t_s - RECENT_SPEED_WINDOW_S).max(first.t_s);
+    let mut best = 0.0_f64;
+    let at = |t: f64| track.position_at(t.min(last.t_s), f64::INFINITY);
+    while t <= end + 1e-9 {
+        if let (Some(a), Some(b)) = (at(t), at(t + chord)) {
+            best = best.max(geom::dist(a, b) / chord);
+        }
+        t += 1.0;
+    }
+    best
 }
 
 /// The constant-velocity baseline field: 1 inside any obstacle's disc (radius + buffer)

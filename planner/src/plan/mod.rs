@@ -260,8 +260,9 @@ pub struct PlanParams {
     /// -1.1 s (3.1); README, "Now: the lane of a faster obstacle").
     pub chase_lane_s: f64,
     /// The near window ([`VerifyParams::near_s`]) of a plan made while no moving obstacle
-    /// at least [`PlanParams::calm_speed_factor`] times as fast as the aircraft (its
-    /// estimated speed, at altitudes the route reaches) has its edge within
+    /// that has flown at least [`PlanParams::calm_speed_factor`] times as fast as the
+    /// aircraft lately (`predictor::ObstacleSummary::recent_max_speed_mps`, the most over
+    /// 3 s stretches of the last 30 s, at altitudes the route reaches) has its edge within
     /// [`PlanParams::calm_m`] of it, seconds ([`crate::replan`] sets it per request). The
     /// 10 s window is the time to turn away from a sphere as fast as the aircraft that
     /// turns toward it; one clearly slower is outturned in less, and the 10 s window sent
@@ -276,7 +277,12 @@ pub struct PlanParams {
     /// changed, one of them after taking 7 s while a spline tour's sphere all but stopped
     /// at its tour's ends, so read slow; README, "Now: a shorter near window while nothing
     /// fast is near"). A 7 s window for every plan was 4-9 s a run shorter but hit more
-    /// (README, "The 7 s near window flown again on fresh seeds, not kept").
+    /// (README, "The 7 s near window flown again on fresh seeds, not kept"). The most an
+    /// obstacle flew lately, not its speed now, since 2026-12-08 (session 29; paired by
+    /// seed with the speed now over 400 fresh Webster Field runs with mixed spheres, 14 and
+    /// 18 m/s, under a rule written before the flights: runs hit 4 -> 3, flights 0.2 s a
+    /// run shorter (standard error 0.5); README, "Now: the calm rule reads the most an
+    /// obstacle flew lately").
     pub calm_near_s: f64,
     /// See [`PlanParams::calm_near_s`]: an obstacle at least this fraction of the
     /// aircraft's cruise speed keeps the full near window while near. Default 0.9.
