@@ -303,9 +303,21 @@ pub fn nearest_fast_obstacle_m(
     alt_m: [f64; 2],
     buffer_m: f64,
 ) -> Option<f64> {
+    nearest_edge_m(obstacles, p, |o| {
+        faster_within(o, speed_mps, alt_m, buffer_m)
+    })
+}
+
+/// The distance from `p` to the edge of the nearest of `obstacles` that `keep` keeps,
+/// metres (negative inside it); `None` when it keeps none.
+fn nearest_edge_m(
+    obstacles: &[ObstacleSummary],
+    p: crate::geometry::Point,
+    keep: impl Fn(&ObstacleSummary) -> bool,
+) -> Option<f64> {
     obstacles
         .iter()
-        .filter(|o| faster_within(o, speed_mps, alt_m, buffer_m))
+        .filter(|o| keep(o))
         .map(|o| dist(o.estimates.position_m, p) - o.last_observation.radius_m)
         .reduce(f64::min)
 }
@@ -329,13 +341,9 @@ pub fn calm_near_s(
         return near_s;
     }
     let fast_mps = speed_mps * p.calm_speed_factor;
-    let near = obstacles
-        .iter()
-        .filter(|o| {
-            o.recent_max_speed_mps > fast_mps && reaches_altitudes(o, alt_m[0], alt_m[1], buffer_m)
-        })
-        .map(|o| dist(o.estimates.position_m, at) - o.last_observation.radius_m)
-        .reduce(f64::min);
+    let near = nearest_edge_m(obstacles, at, |o| {
+        o.recent_max_speed_mps > fast_mps && reaches_altitudes(o, alt_m[0], alt_m[1], buffer_m)
+    });
     match near {
         Some(d) if d <= p.calm_m => near_s,
         _ => p.calm_near_s,
